@@ -1,0 +1,285 @@
+"""Frozen, validated configuration for the world, robot, sensors and env.
+
+Every number carries its unit in a comment. Each dataclass checks itself in
+``__post_init__`` and raises ``ValueError``/``TypeError`` naming the bad field.
+``make_config(**overrides)`` turns the flat keyword arguments that ``gym.make``
+passes into an :class:`EnvConfig`; an unknown name is an error, never ignored.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+PRESETS = ("random", "open", "cluttered", "rooms")
+MOTION_MODELS = ("odometry", "velocity")
+MEASUREMENT_MODELS = ("range_bearing", "cartesian")
+ACTION_TYPES = ("continuous", "discrete")
+
+
+def _check_positive(owner: str, **values: float) -> None:
+    for name, value in values.items():
+        _check_finite(owner, **{name: value})
+        if value <= 0:
+            raise ValueError(f"{owner}.{name} must be > 0, got {value!r}")
+
+
+def _check_non_negative(owner: str, **values: float) -> None:
+    for name, value in values.items():
+        _check_finite(owner, **{name: value})
+        if value < 0:
+            raise ValueError(f"{owner}.{name} must be >= 0, got {value!r}")
+
+
+def _check_finite(owner: str, **values: float) -> None:
+    for name, value in values.items():
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise TypeError(f"{owner}.{name} must be a number, got {type(value).__name__}")
+        if not math.isfinite(value):
+            raise ValueError(f"{owner}.{name} must be finite, got {value!r}")
+
+
+def _check_int(owner: str, low: int, **values: int) -> None:
+    for name, value in values.items():
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise TypeError(f"{owner}.{name} must be an int, got {type(value).__name__}")
+        if value < low:
+            raise ValueError(f"{owner}.{name} must be >= {low}, got {value}")
+
+
+def _check_choice(owner: str, name: str, value: str, choices: tuple[str, ...]) -> None:
+    if value not in choices:
+        raise ValueError(f"{owner}.{name} must be one of {choices}, got {value!r}")
+
+
+@dataclass(frozen=True)
+class WorldConfig:
+    """How the world is laid out. ``preset="random"`` draws a new world from the
+    env's seed at every reset; the other presets are fixed maps."""
+
+    preset: str = "random"
+    width: float = 16.0  # m, arena extent along x
+    height: float = 16.0  # m, arena extent along y
+    n_landmarks: int = 20  # landmarks in random worlds (IDs 0..n-1)
+    n_obstacles: int = 6  # box obstacles in random worlds
+    obstacle_size: tuple[float, float] = (0.6, 2.0)  # m, min/max box side
+    landmark_spacing: float = 1.0  # m, minimum distance between two landmarks
+    clearance: float = 0.4  # m, landmark distance from walls and obstacles
+    wall_thickness: float = 0.1  # m, radius of the wall segments
+
+    def __post_init__(self) -> None:
+        _check_choice("WorldConfig", "preset", self.preset, PRESETS)
+        _check_positive("WorldConfig", width=self.width, height=self.height)
+        _check_int("WorldConfig", 1, n_landmarks=self.n_landmarks)
+        _check_int("WorldConfig", 0, n_obstacles=self.n_obstacles)
+        if len(self.obstacle_size) != 2:
+            raise ValueError("WorldConfig.obstacle_size must be (min, max)")
+        lo, hi = self.obstacle_size
+        _check_positive("WorldConfig", obstacle_size_min=lo, obstacle_size_max=hi)
+        if lo > hi:
+            raise ValueError(f"WorldConfig.obstacle_size min {lo} exceeds max {hi}")
+        _check_non_negative(
+            "WorldConfig", landmark_spacing=self.landmark_spacing, clearance=self.clearance
+        )
+        _check_positive("WorldConfig", wall_thickness=self.wall_thickness)
+
+
+@dataclass(frozen=True)
+class RobotConfig:
+    """A circular unicycle robot."""
+
+    radius: float = 0.25  # m
+    max_speed: float = 1.0  # m/s, |v| at action 1.0
+    max_turn_rate: float = 1.5  # rad/s, |ω| at action 1.0
+    mass: float = 10.0  # kg
+
+    def __post_init__(self) -> None:
+        _check_positive(
+            "RobotConfig",
+            radius=self.radius,
+            max_speed=self.max_speed,
+            max_turn_rate=self.max_turn_rate,
+            mass=self.mass,
+        )
+
+
+@dataclass(frozen=True)
+class SensorConfig:
+    """The landmark sensor (seed 000 range-bearing, or seed 004 cartesian)."""
+
+    model: str = "range_bearing"  # or "cartesian": z = R(θ)ᵀ(m − t)
+    max_range: float = 5.0  # m
+    fov: float = 2.0 * math.pi / 3.0  # rad, full opening angle centred on the heading
+    range_std: float = 0.05  # m, σr
+    bearing_std: float = math.radians(1.0)  # rad, σφ
+    cartesian_std: float = 0.05  # m, σz for the cartesian model
+    detection_prob: float = 1.0  # probability a visible landmark is reported
+    max_detections: int | None = None  # rows of the padded array; None: one per landmark
+
+    def __post_init__(self) -> None:
+        _check_choice("SensorConfig", "model", self.model, MEASUREMENT_MODELS)
+        _check_positive("SensorConfig", max_range=self.max_range, fov=self.fov)
+        if self.fov > 2.0 * math.pi:
+            raise ValueError(f"SensorConfig.fov must be <= 2π rad, got {self.fov}")
+        _check_non_negative(
+            "SensorConfig",
+            range_std=self.range_std,
+            bearing_std=self.bearing_std,
+            cartesian_std=self.cartesian_std,
+        )
+        _check_finite("SensorConfig", detection_prob=self.detection_prob)
+        if not 0.0 < self.detection_prob <= 1.0:
+            raise ValueError(
+                f"SensorConfig.detection_prob must be in (0, 1], got {self.detection_prob}"
+            )
+        if self.max_detections is not None:
+            _check_int("SensorConfig", 1, max_detections=self.max_detections)
+
+    @property
+    def measurement_cov(self):
+        """Q, the 2×2 measurement noise covariance the filter should use."""
+        import numpy as np
+
+        if self.model == "range_bearing":
+            return np.diag([self.range_std**2, self.bearing_std**2])
+        return np.diag([self.cartesian_std**2, self.cartesian_std**2])
+
+
+@dataclass(frozen=True)
+class OdometryConfig:
+    """Odometry noise. ``"odometry"``: u = (δrot1, δtr, δrot2) with the α1–α4
+    action-space noise of seed 000. ``"velocity"``: u = (Δp, Δθ) with the diagonal
+    control noise Σu = diag(σp² + βp·Δp², σθ² + βθ·Δθ²) of seed 004."""
+
+    model: str = "odometry"
+    alphas: tuple[float, float, float, float] = (0.05, 0.005, 0.02, 0.005)  # α1..α4, unitless
+    velocity_noise: tuple[float, float, float, float] = (0.0, 0.0, 0.01, 0.02)
+    # (σp [m], σθ [rad], βp [unitless], βθ [unitless])
+
+    def __post_init__(self) -> None:
+        _check_choice("OdometryConfig", "model", self.model, MOTION_MODELS)
+        if len(self.alphas) != 4:
+            raise ValueError(f"OdometryConfig.alphas must have 4 entries, got {len(self.alphas)}")
+        for i, a in enumerate(self.alphas, start=1):
+            _check_non_negative("OdometryConfig", **{f"alpha{i}": a})
+        if len(self.velocity_noise) != 4:
+            raise ValueError("OdometryConfig.velocity_noise must be (σp, σθ, βp, βθ)")
+        for name, v in zip(("sigma_p", "sigma_theta", "beta_p", "beta_theta"), self.velocity_noise):
+            _check_non_negative("OdometryConfig", **{name: v})
+
+
+@dataclass(frozen=True)
+class RewardConfig:
+    """The raw env's scripting reward: a bonus per landmark seen for the first time,
+    a penalty per step spent in collision."""
+
+    new_landmark_bonus: float = 1.0  # reward per first detection
+    collision_penalty: float = 0.1  # subtracted on a step with a collision
+
+    def __post_init__(self) -> None:
+        _check_finite(
+            "RewardConfig",
+            new_landmark_bonus=self.new_landmark_bonus,
+            collision_penalty=self.collision_penalty,
+        )
+
+
+@dataclass(frozen=True)
+class EnvConfig:
+    """Everything the env needs. ``layout`` (a :class:`slam_env.layouts.Layout`, a dict
+    or a JSON/YAML path) overrides ``world.preset`` with a user-given world."""
+
+    world: WorldConfig = field(default_factory=WorldConfig)
+    robot: RobotConfig = field(default_factory=RobotConfig)
+    sensor: SensorConfig = field(default_factory=SensorConfig)
+    odometry: OdometryConfig = field(default_factory=OdometryConfig)
+    reward: RewardConfig = field(default_factory=RewardConfig)
+    dt: float = 0.2  # s, one env step (policy rate 5 Hz)
+    physics_substeps: int = 4  # pymunk steps per env step
+    action_type: str = "continuous"  # or "discrete": motion primitives
+    terminate_when_all_detected: bool = False  # end the episode once every landmark was seen
+    layout: Any = None  # user world: Layout | dict | path; None uses world.preset
+
+    def __post_init__(self) -> None:
+        for name, cls in (
+            ("world", WorldConfig),
+            ("robot", RobotConfig),
+            ("sensor", SensorConfig),
+            ("odometry", OdometryConfig),
+            ("reward", RewardConfig),
+        ):
+            if not isinstance(getattr(self, name), cls):
+                raise TypeError(f"EnvConfig.{name} must be a {cls.__name__}")
+        _check_positive("EnvConfig", dt=self.dt)
+        _check_int("EnvConfig", 1, physics_substeps=self.physics_substeps)
+        _check_choice("EnvConfig", "action_type", self.action_type, ACTION_TYPES)
+        if not isinstance(self.terminate_when_all_detected, bool):
+            raise TypeError("EnvConfig.terminate_when_all_detected must be a bool")
+
+
+_SECTIONS: dict[str, type] = {
+    "world": WorldConfig,
+    "robot": RobotConfig,
+    "sensor": SensorConfig,
+    "odometry": OdometryConfig,
+    "reward": RewardConfig,
+}
+
+
+def _flat_option_names() -> dict[str, str]:
+    """Map each flat override name to its section; a name two sections share is
+    reachable only through the nested ``section={...}`` form."""
+    owners: dict[str, list[str]] = {}
+    for section, cls in _SECTIONS.items():
+        for f in dataclasses.fields(cls):
+            owners.setdefault(f.name, []).append(section)
+    return {name: s[0] for name, s in owners.items() if len(s) == 1}
+
+
+def option_names() -> list[str]:
+    """Every name ``make_config`` accepts, for error messages and docs."""
+    top = [f.name for f in dataclasses.fields(EnvConfig)]
+    return sorted(set(top) | set(_flat_option_names()))
+
+
+def _as_tuple(value: Any) -> Any:
+    # YAML/JSON give lists; the dataclasses hold tuples so they stay hashable.
+    return tuple(value) if isinstance(value, list) else value
+
+
+def make_config(config: EnvConfig | None = None, **overrides: Any) -> EnvConfig:
+    """Build an :class:`EnvConfig` from flat overrides such as
+    ``make_config(n_landmarks=10, max_range=4.0, dt=0.1)`` or nested ones such as
+    ``make_config(sensor={"fov": 3.14})``. Unknown names raise ``TypeError``."""
+    base = config if config is not None else EnvConfig()
+    if not isinstance(base, EnvConfig):
+        raise TypeError(f"config must be an EnvConfig, got {type(base).__name__}")
+    flat = _flat_option_names()
+    top_fields = {f.name for f in dataclasses.fields(EnvConfig)}
+    section_updates: dict[str, dict[str, Any]] = {s: {} for s in _SECTIONS}
+    top_updates: dict[str, Any] = {}
+    for name, value in overrides.items():
+        if name in _SECTIONS and isinstance(value, Mapping):
+            valid = {f.name for f in dataclasses.fields(_SECTIONS[name])}
+            for key, sub in value.items():
+                if key not in valid:
+                    raise TypeError(
+                        f"unknown {name} option {key!r}; valid: {', '.join(sorted(valid))}"
+                    )
+                section_updates[name][key] = _as_tuple(sub)
+        elif name in top_fields:
+            top_updates[name] = value
+        elif name in flat:
+            section_updates[flat[name]][name] = _as_tuple(value)
+        else:
+            raise TypeError(
+                f"unknown slam_env option {name!r}; valid options: {', '.join(option_names())}"
+            )
+    for section, updates in section_updates.items():
+        if updates:
+            current = top_updates.get(section, getattr(base, section))
+            top_updates[section] = dataclasses.replace(current, **updates)
+    return dataclasses.replace(base, **top_updates) if top_updates else base

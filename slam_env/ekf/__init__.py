@@ -1,0 +1,1 @@
+"""EKF-SLAM with known correspondences, pure numpy (no gymnasium, no pymunk)."""

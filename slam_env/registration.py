@@ -1,0 +1,16 @@
+"""Registers the env IDs with Gymnasium (idempotent, so re-imports are harmless)."""
+
+from __future__ import annotations
+
+import gymnasium as gym
+
+DEFAULT_MAX_EPISODE_STEPS = 500
+
+
+def register_envs() -> None:
+    if "slam_env/Landmarks-v0" not in gym.registry:
+        gym.register(
+            id="slam_env/Landmarks-v0",
+            entry_point="slam_env.env:LandmarksEnv",
+            max_episode_steps=DEFAULT_MAX_EPISODE_STEPS,
+        )
