@@ -167,7 +167,9 @@ class OdometryConfig:
             _check_non_negative("OdometryConfig", **{f"alpha{i}": a})
         if len(self.velocity_noise) != 4:
             raise ValueError("OdometryConfig.velocity_noise must be (σp, σθ, βp, βθ)")
-        for name, v in zip(("sigma_p", "sigma_theta", "beta_p", "beta_theta"), self.velocity_noise):
+        for name, v in zip(
+            ("sigma_p", "sigma_theta", "beta_p", "beta_theta"), self.velocity_noise, strict=True
+        ):
             _check_non_negative("OdometryConfig", **{name: v})
 
 

@@ -14,3 +14,9 @@ def register_envs() -> None:
             entry_point="slam_env.env:LandmarksEnv",
             max_episode_steps=DEFAULT_MAX_EPISODE_STEPS,
         )
+    if "slam_env/ActiveSLAM-v0" not in gym.registry:
+        gym.register(
+            id="slam_env/ActiveSLAM-v0",
+            entry_point="slam_env.active_slam:ActiveSLAMEnv",
+            max_episode_steps=DEFAULT_MAX_EPISODE_STEPS,
+        )

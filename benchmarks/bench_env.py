@@ -1,0 +1,80 @@
+"""Env throughput: slam_env steps per second against CartPole-v1 in the same run.
+
+    .venv/bin/python benchmarks/bench_env.py [--steps 20000] [--repeats 3]
+
+Every env is made with ``gym.make`` (so each carries the same standard wrappers),
+stepped with pre-sampled random actions and reset when an episode ends. The best of
+``--repeats`` timings is kept for each env, which damps the noise of a shared machine.
+The figure that matters is the ratio to CartPole measured in the same run.
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+
+import slam_env  # noqa: F401  (registers the env IDs)
+
+
+def steps_per_second(env_id: str, steps: int, repeats: int, **kwargs: Any) -> float:
+    env = gym.make(env_id, **kwargs)
+    env.action_space.seed(0)
+    actions = [env.action_space.sample() for _ in range(steps)]
+    best = float("inf")
+    for repeat in range(repeats):
+        env.reset(seed=repeat)
+        start = time.perf_counter()
+        for action in actions:
+            _, _, terminated, truncated, _ = env.step(action)
+            if terminated or truncated:
+                env.reset()
+        best = min(best, time.perf_counter() - start)
+    env.close()
+    return steps / best
+
+
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--steps", type=int, default=20_000)
+    parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument(
+        "--wrapped",
+        action="store_true",
+        help="also time slam_env/ActiveSLAM-v0 next to the raw env at 20 and 100 landmarks",
+    )
+    args = parser.parse_args(argv)
+
+    cartpole = steps_per_second("CartPole-v1", args.steps, args.repeats)
+    rows = [("CartPole-v1", "", cartpole)]
+    raw20 = steps_per_second("slam_env/Landmarks-v0", args.steps, args.repeats)
+    rows.append(("slam_env/Landmarks-v0", "20 landmarks, 6 obstacles", raw20))
+    if args.wrapped:
+        for n in (20, 100):
+            kw = {
+                "n_landmarks": n,
+                "width": 16.0 * np.sqrt(n / 20),
+                "height": 16.0 * np.sqrt(n / 20),
+            }
+            raw = (
+                raw20
+                if n == 20
+                else steps_per_second("slam_env/Landmarks-v0", args.steps, args.repeats, **kw)
+            )
+            if n != 20:
+                rows.append(("slam_env/Landmarks-v0", f"{n} landmarks", raw))
+            wrapped = steps_per_second("slam_env/ActiveSLAM-v0", args.steps, args.repeats, **kw)
+            rows.append(
+                ("slam_env/ActiveSLAM-v0", f"{n} landmarks, {wrapped / raw:.2f}× raw", wrapped)
+            )
+
+    print("| env | setting | steps/s | × CartPole-v1 |\n|---|---|---:|---:|")
+    for name, setting, rate in rows:
+        print(f"| {name} | {setting} | {rate:,.0f} | {rate / cartpole:.3f} |")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,53 @@
+"""Action parsing: validation, clipping and the discrete motion primitives."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from gymnasium import spaces
+
+# (speed fraction, turn-rate fraction) of each discrete action, in order.
+DISCRETE_PRIMITIVES: tuple[tuple[float, float], ...] = (
+    (0.0, 0.0),  # 0 stop
+    (1.0, 0.0),  # 1 forward
+    (0.7, 0.7),  # 2 forward-left
+    (0.7, -0.7),  # 3 forward-right
+    (0.0, 1.0),  # 4 turn left in place
+    (0.0, -1.0),  # 5 turn right in place
+    (-0.5, 0.0),  # 6 reverse
+)
+
+
+def parse_action(action: Any, action_space: spaces.Space) -> tuple[float, float]:
+    """Turn an action into (speed fraction, turn fraction) in [−1, 1].
+
+    Continuous actions must be two finite numbers; values outside [−1, 1] are
+    clipped. Discrete actions must be an integer index of a primitive. Anything
+    else raises ``ValueError``/``TypeError`` saying what was wrong.
+    """
+    if isinstance(action_space, spaces.Discrete):
+        arr = np.asarray(action)
+        if arr.shape != () or not np.issubdtype(arr.dtype, np.integer):
+            raise TypeError(
+                f"a discrete action must be one integer, got {action!r} "
+                f"(dtype {arr.dtype}, shape {arr.shape})"
+            )
+        index = int(arr)
+        if not 0 <= index < len(DISCRETE_PRIMITIVES):
+            raise ValueError(
+                f"discrete action must be in [0, {len(DISCRETE_PRIMITIVES)}), got {index}"
+            )
+        return DISCRETE_PRIMITIVES[index]
+
+    try:
+        arr = np.asarray(action, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise TypeError(f"action must be numeric, got {type(action).__name__}: {action!r}") from exc
+    if arr.shape != (2,):
+        raise ValueError(f"action must have shape (2,) (speed, turn rate), got shape {arr.shape}")
+    if not np.all(np.isfinite(arr)):
+        raise ValueError(f"action must be finite, got {arr.tolist()}")
+    speed = min(1.0, max(-1.0, float(arr[0])))
+    turn = min(1.0, max(-1.0, float(arr[1])))
+    return speed, turn

@@ -1,0 +1,172 @@
+"""Belief observations: the EKF-SLAM belief encoded as fixed-size float32 arrays.
+
+Two encodings, both slotted by landmark ID (slot i is always landmark i):
+
+* ``"full"``: the belief exactly, a ``Dict`` with the mean and covariance padded to
+  ``max_landmarks`` and a known-mask.
+* ``"egocentric"``: a flat ``Box`` of features a policy learns from easily (see
+  :class:`EgocentricEncoding` for the layout).
+
+Both clip to their (finite) bounds; the wrapper reports in ``info`` when it had to.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from gymnasium import spaces
+
+# Scales that turn standard deviations into features in [0, 1): tanh(σ / scale).
+POSITION_STD_SCALE = 1.0  # m
+HEADING_STD_SCALE = 0.5  # rad
+# A belief further than this many arena sizes outside the arena has diverged.
+_EXTENT_FACTOR = 10.0
+
+
+@dataclass(frozen=True)
+class BeliefGeometry:
+    """The sizes that fix an encoding's layout and bounds."""
+
+    max_landmarks: int  # landmark slots: IDs 0..max_landmarks-1
+    width: float  # m, arena extent along x
+    height: float  # m, arena extent along y
+    max_range: float  # m, sensor range: the scale of robot-frame landmark positions
+
+    @property
+    def extent(self) -> float:
+        """Largest |coordinate| a sane belief can have, m."""
+        return _EXTENT_FACTOR * max(self.width, self.height)
+
+
+def slot_indices(state_to_id: np.ndarray) -> np.ndarray:
+    """Indices into the ID-slotted state [x, y, θ, m0x, m0y, …] of each entry of the
+    filter's state, which holds landmarks in the order first seen."""
+    ids = np.asarray(state_to_id, dtype=np.int64)
+    lm = np.empty(2 * ids.size, dtype=np.int64)
+    lm[0::2] = 3 + 2 * ids
+    lm[1::2] = 4 + 2 * ids
+    return np.concatenate([np.arange(3), lm])
+
+
+class FullEncoding:
+    """``Dict(mean: (3+2M,), cov: (3+2M, 3+2M), known: (M,))``, float32.
+
+    ``mean``/``cov`` hold the pose in entries 0..2 and landmark i in 3+2i, 4+2i;
+    unknown slots are zero with ``known[i] = 0``. Positions are bounded by ±10 arena
+    sizes and (co)variances by that squared; the heading lies in [−π, π].
+    """
+
+    def __init__(self, geometry: BeliefGeometry) -> None:
+        self.geometry = geometry
+        m = geometry.max_landmarks
+        dim = 3 + 2 * m
+        extent = geometry.extent
+        high_mean = np.full(dim, extent, dtype=np.float32)
+        high_mean[2] = math.pi
+        cov_bound = np.float32(extent**2)
+        self._mean_high = high_mean
+        self._cov_bound = cov_bound
+        self.space = spaces.Dict(
+            {
+                "mean": spaces.Box(-high_mean, high_mean, dtype=np.float32),
+                "cov": spaces.Box(-cov_bound, cov_bound, (dim, dim), np.float32),
+                "known": spaces.Box(0.0, 1.0, (m,), np.float32),
+            }
+        )
+
+    def encode(
+        self, mean: np.ndarray, cov: np.ndarray, state_to_id: np.ndarray
+    ) -> tuple[dict[str, np.ndarray], bool]:
+        """Encode the filter's state; returns the observation and whether it clipped."""
+        m = self.geometry.max_landmarks
+        dim = 3 + 2 * m
+        idx = slot_indices(state_to_id)
+        full_mean = np.zeros(dim, dtype=np.float64)
+        full_cov = np.zeros((dim, dim), dtype=np.float64)
+        full_mean[idx] = mean
+        full_cov[np.ix_(idx, idx)] = cov
+        known = np.zeros(m, dtype=np.float32)
+        known[np.asarray(state_to_id, dtype=np.int64)] = 1.0
+        clipped_mean = np.clip(np.nan_to_num(full_mean), -self._mean_high, self._mean_high)
+        clipped_cov = np.clip(np.nan_to_num(full_cov), -self._cov_bound, self._cov_bound)
+        clipped = not (  # also true for any NaN
+            np.array_equal(clipped_mean, full_mean) and np.array_equal(clipped_cov, full_cov)
+        )
+        obs = {
+            "mean": clipped_mean.astype(np.float32),
+            "cov": clipped_cov.astype(np.float32),
+            "known": known,
+        }
+        return obs, clipped
+
+
+class EgocentricEncoding:
+    """A flat ``Box`` of 7 + 4M float32 features:
+
+    | index        | feature                                                            |
+    |--------------|--------------------------------------------------------------------|
+    | 0, 1         | estimated x / width, y / height (in [−10, 11])                       |
+    | 2, 3         | cos θ̂, sin θ̂                                                        |
+    | 4, 5, 6      | tanh(σx / 1 m), tanh(σy / 1 m), tanh(σθ / 0.5 rad): pose uncertainty |
+    | 7 + 4i       | landmark i known (1) or not (0)                                     |
+    | 8 + 4i, 9 + 4i | its estimated position in the estimated robot frame / max_range    |
+    | 10 + 4i      | tanh(√trace Σ_ii / 1 m): its marginal uncertainty                   |
+
+    Unknown slots are all zero.
+    """
+
+    def __init__(self, geometry: BeliefGeometry) -> None:
+        self.geometry = geometry
+        m = geometry.max_landmarks
+        g = geometry
+        rel = g.extent * 2.0 / g.max_range  # no belief inside the bounds gets further
+        low = np.concatenate(
+            [
+                [-_EXTENT_FACTOR, -_EXTENT_FACTOR, -1.0, -1.0, 0.0, 0.0, 0.0],
+                np.tile([0.0, -rel, -rel, 0.0], m),
+            ]
+        ).astype(np.float32)
+        high = np.concatenate(
+            [
+                [_EXTENT_FACTOR + 1.0, _EXTENT_FACTOR + 1.0, 1.0, 1.0, 1.0, 1.0, 1.0],
+                np.tile([1.0, rel, rel, 1.0], m),
+            ]
+        ).astype(np.float32)
+        self._low, self._high = low, high
+        self.space = spaces.Box(low, high, dtype=np.float32)
+
+    def encode(
+        self,
+        pose: np.ndarray,
+        pose_cov: np.ndarray,
+        state_to_id: np.ndarray,
+        landmark_means: np.ndarray,
+        landmark_covs: np.ndarray,
+    ) -> tuple[np.ndarray, bool]:
+        g = self.geometry
+        x, y, theta = (float(v) for v in pose)
+        c, s = math.cos(theta), math.sin(theta)
+        feat = np.zeros(7 + 4 * g.max_landmarks, dtype=np.float64)
+        feat[0] = x / g.width
+        feat[1] = y / g.height
+        feat[2] = c
+        feat[3] = s
+        stds = np.sqrt(np.maximum(np.diagonal(pose_cov)[:3], 0.0))
+        feat[4] = math.tanh(stds[0] / POSITION_STD_SCALE)
+        feat[5] = math.tanh(stds[1] / POSITION_STD_SCALE)
+        feat[6] = math.tanh(stds[2] / HEADING_STD_SCALE)
+        ids = np.asarray(state_to_id, dtype=np.int64)
+        if ids.size:
+            dx = landmark_means[:, 0] - x
+            dy = landmark_means[:, 1] - y
+            base = 7 + 4 * ids
+            feat[base] = 1.0
+            feat[base + 1] = (c * dx + s * dy) / g.max_range
+            feat[base + 2] = (-s * dx + c * dy) / g.max_range
+            trace = landmark_covs[:, 0, 0] + landmark_covs[:, 1, 1]
+            feat[base + 3] = np.tanh(np.sqrt(np.maximum(trace, 0.0)) / POSITION_STD_SCALE)
+        clipped_feat = np.clip(np.nan_to_num(feat), self._low, self._high)
+        clipped = not np.array_equal(clipped_feat, feat)  # also true for any NaN
+        return clipped_feat.astype(np.float32), clipped

@@ -1,0 +1,374 @@
+"""The raw sensor-stream environment, ``slam_env/Landmarks-v0``."""
+
+from __future__ import annotations
+
+import math
+from typing import Any, SupportsFloat
+
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+from gymnasium.error import ResetNeeded
+
+from slam_env.actions import DISCRETE_PRIMITIVES, parse_action
+from slam_env.config import EnvConfig, make_config
+from slam_env.layouts import Layout, layout_for
+from slam_env.sensors import Detections, LandmarkSensor, OdometrySensor
+from slam_env.world import World
+
+# Headroom of the odometry translation bound over the largest physical motion of a
+# step: the noise is proportional to the motion, so a reading beyond this is a >10σ event.
+_ODOMETRY_TRANSLATION_HEADROOM = 4.0
+# Detections are clipped to the sensor's range plus this many range standard deviations.
+_RANGE_HEADROOM_STD = 6.0
+
+
+def unpack_detections(obs: dict[str, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    """The valid detections of a raw observation: ``z`` (k, 2) float64 and ``ids`` (k,)
+    int64, in the observation's order (ascending ID)."""
+    valid = obs["mask"] > 0.5
+    z = obs["detections"].reshape(-1, 2)[valid].astype(np.float64)
+    return z, obs["ids"][valid].astype(np.int64)
+
+
+class LandmarksEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
+    """A 2D robot among point landmarks and obstacles, sensing landmarks by ID.
+
+    ## Description
+    A circular unicycle robot, simulated with pymunk, drives in a walled arena among
+    convex obstacles and point landmarks (small posts) with IDs. Each step it receives
+    noisy odometry for the motion just made and the noisy range-bearing detections,
+    with IDs, of the landmarks within range and field of view and not occluded. There
+    is no ground truth in the observation: this is the stream a SLAM front end sees.
+    ``slam_env/ActiveSLAM-v0`` puts an EKF-SLAM filter behind it.
+
+    ## Action Space
+    ``action_type="continuous"`` (default): ``Box(-1, 1, (2,), float32)``, the forward
+    speed and turn rate as fractions of ``max_speed`` (m/s) and ``max_turn_rate``
+    (rad/s). Finite values outside [−1, 1] are clipped; a non-finite value or a wrong
+    shape raises ``ValueError``. ``action_type="discrete"``: ``Discrete(7)`` motion
+    primitives (stop, forward, forward-left, forward-right, turn left, turn right,
+    reverse), see :data:`slam_env.actions.DISCRETE_PRIMITIVES`.
+
+    ## Observation Space
+    A ``Dict`` of float32 arrays (``D = max_detections``, default one row per landmark):
+
+    | key            | shape  | content                                                      |
+    |----------------|--------|--------------------------------------------------------------|
+    | ``odometry``   | (3,)   | (δrot1 rad, δtr m, δrot2 rad) for the step, seed 000 model;   |
+    |                | (2,)   | or (Δp m, Δθ rad) with ``motion_model="velocity"``            |
+    | ``detections`` | (2D,)  | row-major pairs: [r m, φ rad] per detection (φ ∈ [−π, π));    |
+    |                |        | [x, y] m in the robot frame with ``model="cartesian"``;       |
+    |                |        | zero pairs are padding                                        |
+    | ``ids``        | (D,)   | the landmark ID of each pair; −1 for padding                  |
+    | ``mask``       | (D,)   | 1.0 for a real detection, 0.0 for padding                     |
+
+    ``detections`` is flat so that every key is a vector (what stable-baselines3's
+    policies expect); :func:`unpack_detections` returns the valid ``(k, 2)`` rows and
+    their integer IDs.
+    Detections are sorted by landmark ID. δtr/Δp may be negative (reversing). Values
+    are clipped to the bounds, which lie more than 10σ beyond any physical reading.
+
+    ## Rewards
+    ``new_landmark_bonus`` (1.0) for every landmark detected for the first time, minus
+    ``collision_penalty`` (0.1) on a step in which the robot touched anything. The terms
+    are reported in ``info["reward_terms"]``. The active-SLAM reward lives in the wrapper.
+
+    ## Starting State
+    The layout's start pose; with ``preset="random"`` a new world (obstacles,
+    landmarks, start pose) is drawn from the env's seed at every reset.
+
+    ## Episode End
+    Truncation after ``max_episode_steps`` (500 at registration). The robot cannot
+    fail, so there is no terminal state, unless ``terminate_when_all_detected=True``,
+    which terminates the episode on the step in which the last landmark is first seen.
+
+    ## Info
+    ``pose`` (3,) true pose, ``landmark_positions`` (N, 2) and ``landmark_ids`` (N,)
+    true map, ``collision`` (bool), ``seen_ids`` IDs detected so far (sorted),
+    ``odometry_true`` the noise-free control, ``reward_terms``.
+
+    ## Arguments
+    ``gym.make("slam_env/Landmarks-v0", render_mode=None, config=None, **options)``:
+    ``config`` an :class:`EnvConfig`; ``options`` flat overrides of any of its fields
+    (``n_landmarks=10``, ``max_range=4.0``, ``motion_model``…, see
+    :func:`slam_env.config.make_config`), or a user world as ``layout=`` (a
+    :class:`Layout`, a dict, or a JSON/YAML path). Unknown options raise ``TypeError``.
+    """
+
+    metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 10}
+
+    def __init__(
+        self, render_mode: str | None = None, config: EnvConfig | None = None, **options: Any
+    ) -> None:
+        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
+            raise ValueError(
+                f"render_mode must be one of {self.metadata['render_modes']} or None, "
+                f"got {render_mode!r}"
+            )
+        self.render_mode = render_mode
+        self.config = make_config(config, **options)
+        cfg = self.config
+
+        # A fixed world (preset or user layout) is built once; a random one at each reset.
+        self._fixed_layout: Layout | None = None
+        if cfg.layout is not None or cfg.world.preset != "random":
+            self._fixed_layout = layout_for(cfg, rng=None)
+            ids = self._fixed_layout.landmark_ids
+            self.n_landmarks = len(ids)
+            self.n_landmark_slots = max(ids) + 1
+            self.arena_size = (self._fixed_layout.width, self._fixed_layout.height)
+        else:
+            self.n_landmarks = cfg.world.n_landmarks
+            self.n_landmark_slots = cfg.world.n_landmarks
+            self.arena_size = (cfg.world.width, cfg.world.height)
+        self.max_detections = cfg.sensor.max_detections or self.n_landmarks
+
+        self.sensor = LandmarkSensor(cfg.sensor)
+        self.odometry = OdometrySensor(cfg.odometry)
+
+        if cfg.action_type == "continuous":
+            self.action_space = spaces.Box(-1.0, 1.0, shape=(2,), dtype=np.float32)
+        else:
+            self.action_space = spaces.Discrete(len(DISCRETE_PRIMITIVES))
+        self.observation_space = self._build_observation_space()
+
+        self._world: World | None = None
+        self._renderer = None
+        self._closed = False
+        self._seen = np.zeros(self.n_landmark_slots, dtype=bool)
+        self._trail: list[tuple[float, float]] = []
+        self._last_detections: Detections | None = None
+        self._last_collision = False
+        # Drawn over the world by render(); the EKF-SLAM wrapper sets it.
+        self.belief_overlay = None
+
+    # ------------------------------------------------------------------ spaces
+    def _build_observation_space(self) -> spaces.Dict:
+        cfg = self.config
+        step_motion = cfg.robot.max_speed * cfg.dt
+        trans_bound = _ODOMETRY_TRANSLATION_HEADROOM * step_motion + 1.0
+        if cfg.odometry.model == "odometry":
+            odo_high = np.array([math.pi, trans_bound, math.pi], dtype=np.float32)
+        else:
+            odo_high = np.array([trans_bound, math.pi], dtype=np.float32)
+        self._odometry_low, self._odometry_high = -odo_high, odo_high
+
+        reach = cfg.sensor.max_range + _RANGE_HEADROOM_STD * max(
+            cfg.sensor.range_std, cfg.sensor.cartesian_std
+        )
+        d = self.max_detections
+        if cfg.sensor.model == "range_bearing":
+            det_low = np.tile(np.array([0.0, -math.pi], dtype=np.float32), (d, 1))
+            det_high = np.tile(np.array([reach, math.pi], dtype=np.float32), (d, 1))
+        else:
+            det_low = np.full((d, 2), -reach, dtype=np.float32)
+            det_high = np.full((d, 2), reach, dtype=np.float32)
+        self._det_low, self._det_high = det_low, det_high
+        return spaces.Dict(
+            {
+                "odometry": spaces.Box(-odo_high, odo_high, dtype=np.float32),
+                "detections": spaces.Box(det_low.ravel(), det_high.ravel(), dtype=np.float32),
+                "ids": spaces.Box(-1.0, float(self.n_landmark_slots - 1), (d,), np.float32),
+                "mask": spaces.Box(0.0, 1.0, (d,), np.float32),
+            }
+        )
+
+    # ------------------------------------------------------------------ API
+    def reset(
+        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+        super().reset(seed=seed)
+        if self._closed:
+            raise RuntimeError("reset() called on a closed LandmarksEnv; make a new env")
+        if options:
+            raise ValueError(f"LandmarksEnv.reset takes no options, got {sorted(options)}")
+        cfg = self.config
+        layout = self._fixed_layout or layout_for(cfg, rng=self.np_random)
+        self._world = World(
+            layout, cfg.robot, cfg.dt, cfg.physics_substeps, cfg.world.wall_thickness
+        )
+        self._landmark_positions = self._world.landmark_positions
+        self._landmark_ids = self._world.landmark_ids
+        self._seen[:] = False
+        self._last_collision = False
+        self.belief_overlay = None
+        pose = self._world.pose
+        self._trail = [(pose[0], pose[1])]
+        if self._renderer is not None:
+            self._renderer.set_layout(layout)
+
+        detections = self._sense(pose)
+        self._mark_seen(detections)
+        zero_control = np.zeros(self.odometry.dim)
+        obs = self._get_obs(zero_control, detections)
+        info = self._get_info(pose, zero_control, {"new_landmarks": 0.0, "collision": 0.0})
+        if self.render_mode == "human":
+            self.render()
+        return obs, info
+
+    def step(
+        self, action: Any
+    ) -> tuple[dict[str, np.ndarray], SupportsFloat, bool, bool, dict[str, Any]]:
+        if self._closed:
+            raise RuntimeError("step() called on a closed LandmarksEnv; make a new env")
+        if self._world is None:
+            raise ResetNeeded("call reset() before step()")
+        speed_frac, turn_frac = parse_action(action, self.action_space)
+        cfg = self.config
+
+        # Simulate: the physics runs several substeps per env step.
+        pose0 = self._world.pose
+        collided = self._world.step(
+            speed_frac * cfg.robot.max_speed, turn_frac * cfg.robot.max_turn_rate
+        )
+        pose1 = self._world.pose
+        self._last_collision = collided
+        if self.render_mode is not None:
+            self._trail.append((pose1[0], pose1[1]))
+
+        # Observe: odometry of the motion just made, then the landmark sensor.
+        true_control = self.odometry.true_control(pose0, pose1)
+        control = self.odometry.measure(pose0, pose1, self.np_random)
+        detections = self._sense(pose1)
+        n_new = self._mark_seen(detections)
+
+        # Reward terms, then episode end.
+        terms = {
+            "new_landmarks": cfg.reward.new_landmark_bonus * n_new,
+            "collision": -cfg.reward.collision_penalty if collided else 0.0,
+        }
+        reward = float(sum(terms.values()))
+        terminated = bool(cfg.terminate_when_all_detected and self._all_seen())
+        obs = self._get_obs(control, detections)
+        info = self._get_info(pose1, true_control, terms)
+        if self.render_mode == "human":
+            self.render()
+        return obs, reward, terminated, False, info
+
+    def render(self) -> np.ndarray | None:
+        if self.render_mode is None:
+            gym.logger.warn(
+                "render() called without a render_mode; pass render_mode='rgb_array' or "
+                "'human' to gym.make"
+            )
+            return None
+        if self._world is None:
+            raise ResetNeeded("call reset() before render()")
+        return self._get_renderer().render(self.render_frame())
+
+    def close(self) -> None:
+        if self._renderer is not None:
+            self._renderer.close()
+            self._renderer = None
+        self._closed = True
+
+    # ------------------------------------------------------------------ helpers
+    @property
+    def world(self) -> World:
+        """The pymunk world of the current episode (after ``reset``)."""
+        if self._world is None:
+            raise ResetNeeded("call reset() before accessing the world")
+        return self._world
+
+    @property
+    def layout(self) -> Layout:
+        return self.world.layout
+
+    def _sense(self, pose: tuple[float, float, float]) -> Detections:
+        detections = self.sensor.sense(
+            pose,
+            self._landmark_positions,
+            self._landmark_ids,
+            self.np_random,
+            self._world.line_of_sight,
+        )
+        self._last_detections = detections
+        return detections
+
+    def _mark_seen(self, detections: Detections) -> int:
+        ids = detections.ids
+        if ids.size == 0:
+            return 0
+        n_new = int(np.count_nonzero(~self._seen[ids]))
+        self._seen[ids] = True
+        return n_new
+
+    def _all_seen(self) -> bool:
+        return bool(np.all(self._seen[self._landmark_ids]))
+
+    def _get_obs(self, control: np.ndarray, detections: Detections) -> dict[str, np.ndarray]:
+        d = self.max_detections
+        k = len(detections.ids)
+        det = np.zeros((d, 2), dtype=np.float32)
+        ids = np.full(d, -1.0, dtype=np.float32)
+        mask = np.zeros(d, dtype=np.float32)
+        if k:
+            det[:k] = detections.z
+            np.clip(det[:k], self._det_low[:k], self._det_high[:k], out=det[:k])
+            ids[:k] = detections.ids
+            mask[:k] = 1.0
+        odometry = np.clip(control, self._odometry_low, self._odometry_high).astype(np.float32)
+        return {"odometry": odometry, "detections": det.ravel(), "ids": ids, "mask": mask}
+
+    def _get_info(
+        self, pose: tuple[float, float, float], true_control: np.ndarray, terms: dict[str, float]
+    ) -> dict[str, Any]:
+        return {
+            "pose": np.array(pose, dtype=np.float64),
+            "landmark_positions": self._landmark_positions.copy(),
+            "landmark_ids": self._landmark_ids.copy(),
+            "collision": self._last_collision,
+            "seen_ids": np.flatnonzero(self._seen),
+            "odometry_true": np.asarray(true_control, dtype=np.float64),
+            "reward_terms": dict(terms),
+        }
+
+    def render_frame(self):
+        """The plain-data :class:`slam_env.rendering.Frame` of the current state."""
+        from slam_env.geometry import robot_to_world
+        from slam_env.rendering import Frame
+
+        pose = self.world.pose
+        det = self._last_detections
+        if det is not None and len(det.ids):
+            if self.config.sensor.model == "range_bearing":
+                r, phi = det.z[:, 0], det.z[:, 1]
+                local = np.stack([r * np.cos(phi), r * np.sin(phi)], axis=-1)
+            else:
+                local = det.z
+            points = robot_to_world(pose, local)
+            ids = det.ids.copy()
+        else:
+            points = np.zeros((0, 2))
+            ids = np.zeros(0, dtype=np.int64)
+        return Frame(
+            pose=pose,
+            trail=np.array(self._trail, dtype=np.float64).reshape(-1, 2),
+            detections_world=points,
+            detected_ids=ids,
+            seen_mask=self._seen[self._landmark_ids].copy(),
+            collision=self._last_collision,
+            belief=self.belief_overlay,
+        )
+
+    def _get_renderer(self):
+        if self._renderer is None:
+            from slam_env.rendering import Renderer
+
+            cfg = self.config
+            self._renderer = Renderer(
+                self.world.layout,
+                robot_radius=cfg.robot.radius,
+                max_range=cfg.sensor.max_range,
+                fov=cfg.sensor.fov,
+                render_mode=self.render_mode,
+                render_fps=self.metadata["render_fps"],
+            )
+        return self._renderer
+
+    # Pickling: the renderer (a pygame window) stays behind; it is rebuilt on demand.
+    def __getstate__(self) -> dict[str, Any]:
+        state = self.__dict__.copy()
+        state["_renderer"] = None
+        return state

@@ -1,0 +1,299 @@
+"""The robot's sensors: a landmark sensor with IDs and a noisy odometry sensor.
+
+Both are plain classes built from their frozen config (:class:`SensorConfig`,
+:class:`OdometryConfig`); neither imports pymunk or gymnasium. All randomness comes
+from the ``numpy.random.Generator`` passed to each call, drawn in a documented fixed
+order, so the same seed and the same inputs give bit-identical outputs.
+
+Frames and units: poses are ``(x [m], y [m], θ [rad])`` in the world frame, θ
+measured counter-clockwise from the world x axis. The robot frame has its x axis
+along the heading and its y axis to the robot's left. Angles are reported wrapped to
+[−π, π).
+
+The noise covariances are those of :mod:`slam_env.ekf.models` (the functions the
+filter uses), and the sensors expose their parameters (``LandmarkSensor.measurement_cov``,
+``OdometrySensor.alphas`` / ``velocity_noise``), so a noise-matched filter is matched
+exactly.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from slam_env.config import OdometryConfig, SensorConfig
+from slam_env.ekf.models import odometry_action_cov, velocity_control_cov
+from slam_env.geometry import (
+    odometry_from_poses,
+    rotation,
+    velocity_from_poses,
+    wrap_angle,
+)
+
+__all__ = ["Detections", "LandmarkSensor", "LineOfSight", "OdometrySensor"]
+
+LineOfSight = Callable[[np.ndarray, np.ndarray, int], bool]
+"""``line_of_sight(origin (2,), target (2,), landmark_index) -> True`` when the view
+from ``origin`` to ``target`` is clear. Both arrays are read-only views."""
+
+_EMPTY_Z = np.zeros((0, 2), dtype=np.float64)
+_EMPTY_I = np.zeros(0, dtype=np.int64)
+for _a in (_EMPTY_Z, _EMPTY_I):
+    _a.flags.writeable = False
+
+
+def _wrap_array(angle: np.ndarray) -> np.ndarray:
+    """``wrap_angle`` guaranteed half-open: an input just below −π can round to +π in
+    ``(a + π) % 2π − π``; clamp that to the largest double below π (1 ulp from −π)
+    so every angle lies in [−π, π)."""
+    return np.minimum(wrap_angle(angle), _BELOW_PI)
+
+
+def _wrap_scalar(angle: float) -> float:
+    return min(wrap_angle(angle), _BELOW_PI)
+
+
+_BELOW_PI = math.nextafter(math.pi, 0.0)
+
+
+@dataclass(frozen=True, slots=True)
+class Detections:
+    """One scan of the landmark sensor: k detections, sorted by landmark ID.
+
+    Attributes:
+        z: (k, 2) float64. ``"range_bearing"``: rows ``[r [m], φ [rad]]``, φ measured
+            from the robot's heading, counter-clockwise positive, wrapped to [−π, π).
+            ``"cartesian"``: rows ``[x, y]`` [m], the landmark in the robot frame.
+        ids: (k,) int64 landmark IDs (the seed's signature s), strictly ascending
+            when the input IDs are unique.
+        index: (k,) int64 row of each detection in the ``positions``/``ids`` arrays
+            given to :meth:`LandmarkSensor.sense`.
+    """
+
+    z: np.ndarray
+    ids: np.ndarray
+    index: np.ndarray
+
+    def __len__(self) -> int:
+        return int(self.ids.shape[0])
+
+
+class LandmarkSensor:
+    """A 2D landmark sensor that reports each visible landmark's ID (known
+    correspondences).
+
+    Model ``"range_bearing"`` (seed 000): for a landmark m and robot pose (x, y, θ),
+    ``z = [r, φ] + η`` with ``r = √((mx−x)² + (my−y)²)``,
+    ``φ = wrap(atan2(my−y, mx−x) − θ)`` and ``η ~ N(0, Q)``,
+    ``Q = diag(σr², σφ²)`` (``range_std`` [m], ``bearing_std`` [rad]). The noisy
+    bearing is wrapped again to [−π, π); the noisy range is *not* clipped at 0 (that
+    would bias it away from the model), which matters only for landmarks closer
+    than a few σr.
+
+    Model ``"cartesian"`` (seed 004): ``z = R(θ)ᵀ(m − t) + η``, the landmark in the
+    robot frame, ``η ~ N(0, σz² I)`` (``cartesian_std`` [m]).
+
+    Visibility, applied in this order (also the order of the random draws):
+
+    1. *Range and field of view* (vectorised over all landmarks): the true range
+       ``r ≤ max_range`` and the true bearing ``|φ| ≤ fov / 2`` (both inclusive;
+       ``fov = 2π`` sees all around). The candidates are then put in ascending ID
+       order, which every later step keeps.
+    2. *Detection probability*: if ``detection_prob < 1``, one ``rng.random(k)``
+       call drops each candidate independently with probability ``1 − p``.
+    3. *Occlusion*: ``line_of_sight(origin, target, i)`` is called for each
+       remaining candidate only (``None``: nothing occludes). Dropping before
+       occluding gives the same distribution and saves the costlier ray queries.
+    4. *max_detections*: if more landmarks remain, the nearest ones (true range,
+       ties by ID) are kept; the output stays sorted by ID.
+    5. *Noise*: one ``rng.standard_normal((k, 2))`` call, skipped when the
+       standard deviations are all zero (the output is then exact).
+
+    Output: a :class:`Detections` of k ≤ N rows sorted by landmark ID.
+    """
+
+    def __init__(self, config: SensorConfig) -> None:
+        if not isinstance(config, SensorConfig):
+            raise TypeError(f"config must be a SensorConfig, got {type(config).__name__}")
+        self.config = config
+        self.model = config.model
+        self.max_range = float(config.max_range)
+        self.fov = float(config.fov)
+        self.detection_prob = float(config.detection_prob)
+        self.max_detections = config.max_detections
+        self._half_fov = 0.5 * self.fov
+        self._all_around = self._half_fov >= math.pi
+        if self.model == "range_bearing":
+            std = (float(config.range_std), float(config.bearing_std))
+        else:
+            std = (float(config.cartesian_std), float(config.cartesian_std))
+        self._std = np.array(std, dtype=np.float64)
+        self._noisy = bool(std[0] > 0.0 or std[1] > 0.0)
+
+    @property
+    def measurement_cov(self) -> np.ndarray:
+        """Q (2×2): ``diag(σr², σφ²)`` for range-bearing, ``σz² I`` for cartesian."""
+        return np.diag(self._std * self._std)
+
+    def _geometry(self, pose, positions: np.ndarray):
+        """For every landmark: robot-frame coordinates d (N, 2) = R(θ)ᵀ(m − t), the
+        true ``[r, φ]`` rows rb (N, 2) with φ = atan2(d_y, d_x) ∈ [−π, π], and the
+        in-range-and-FOV mask (N,). φ computed in the robot frame equals the seed's
+        wrap(atan2(my − y, mx − x) − θ) without the cancellation of subtracting θ."""
+        x, y, theta = float(pose[0]), float(pose[1]), float(pose[2])
+        c, s = math.cos(theta), math.sin(theta)
+        # Row-wise R(θ)ᵀ(m − t) = m·R(θ) − t·R(θ): one small matmul, scalar offset.
+        d = np.dot(positions, rotation(theta))
+        d -= (c * x + s * y, c * y - s * x)
+        dx = d[:, 0]
+        dy = d[:, 1]
+        rb = np.empty_like(d)
+        r = np.hypot(dx, dy, out=rb[:, 0])
+        bearing = np.arctan2(dy, dx, out=rb[:, 1])
+        mask = r <= self.max_range
+        if not self._all_around:
+            mask &= np.abs(bearing) <= self._half_fov
+        return d, rb, mask
+
+    @staticmethod
+    def _as_positions(positions) -> np.ndarray:
+        positions = np.asarray(positions, dtype=np.float64)
+        if positions.ndim != 2 or positions.shape[1] != 2:
+            raise ValueError(f"positions must have shape (N, 2), got {positions.shape}")
+        return positions
+
+    def candidates(self, pose, positions) -> np.ndarray:
+        """Indices (ascending, int64) of the landmarks within ``max_range`` and the
+        field of view of ``pose``, before occlusion and detection probability."""
+        positions = self._as_positions(positions)
+        mask = self._geometry(pose, positions)[2]
+        return mask.nonzero()[0].astype(np.int64, copy=False)
+
+    def sense(
+        self,
+        pose,
+        positions,
+        ids,
+        rng: np.random.Generator,
+        line_of_sight: LineOfSight | None = None,
+    ) -> Detections:
+        """Detect the landmarks seen from ``pose``.
+
+        Args:
+            pose: (x, y, θ) of the sensor in the world frame [m, m, rad].
+            positions: (N, 2) landmark positions in the world frame [m].
+            ids: (N,) integer landmark IDs, row-aligned with ``positions``.
+            rng: the only source of randomness (see the class docstring for the order).
+            line_of_sight: occlusion test, called only for candidates; ``None`` means
+                nothing occludes. It must not modify its array arguments.
+
+        Returns:
+            :class:`Detections` sorted by landmark ID.
+        """
+        positions = self._as_positions(positions)
+        ids = np.asarray(ids)
+        if ids.shape != (positions.shape[0],):
+            raise ValueError(f"ids must have shape ({positions.shape[0]},), got {ids.shape}")
+        d, rb, mask = self._geometry(pose, positions)
+        idx = mask.nonzero()[0]
+        if idx.size > 1:
+            found = ids.take(idx)
+            listed = found.tolist()
+            if listed != sorted(listed):
+                idx = idx[np.argsort(found, kind="stable")]
+        if self.detection_prob < 1.0 and idx.size:
+            idx = idx[rng.random(idx.size) < self.detection_prob]
+        if line_of_sight is not None and idx.size:
+            origin = np.array([float(pose[0]), float(pose[1])])
+            origin.flags.writeable = False
+            view = positions.view()
+            view.flags.writeable = False
+            idx = np.array(
+                [i for i in idx.tolist() if line_of_sight(origin, view[i], i)], dtype=np.intp
+            )
+        if self.max_detections is not None and idx.size > self.max_detections:
+            nearest = np.argsort(rb[:, 0].take(idx), kind="stable")[: self.max_detections]
+            idx = idx[np.sort(nearest)]
+        k = idx.size
+        if k == 0:
+            return Detections(_EMPTY_Z.copy(), _EMPTY_I.copy(), _EMPTY_I.copy())
+        if self.model == "range_bearing":
+            z = rb.take(idx, axis=0)
+            if self._noisy:
+                noise = rng.standard_normal((k, 2))
+                noise *= self._std
+                z += noise
+            # wrap: +π (landmark straight behind) becomes −π; noise may leave [−π, π)
+            z[:, 1] = _wrap_array(z[:, 1])
+        else:
+            z = d.take(idx, axis=0)
+            if self._noisy:
+                noise = rng.standard_normal((k, 2))
+                noise *= self._std
+                z += noise
+        return Detections(z, ids.take(idx).astype(np.int64), idx.astype(np.int64))
+
+
+class OdometrySensor:
+    """Noisy odometry: the robot's true motion pose0 → pose1, decomposed into a
+    control u, plus Gaussian noise sampled in action space with exactly the
+    covariance the filter's motion model uses.
+
+    Model ``"odometry"`` (seed 000), ``dim = 3``: ``u = (δrot1 [rad], δtr [m],
+    δrot2 [rad])`` from :func:`slam_env.geometry.odometry_from_poses` (a backwards
+    motion has δtr < 0 and a small δrot1); noise covariance
+    ``M(u) = odometry_action_cov(u, alphas)``, α1..α4 = :attr:`alphas` (unitless).
+
+    Model ``"velocity"`` (seed 004), ``dim = 2``: ``u = (Δp [m], Δθ [rad])`` from
+    :func:`slam_env.geometry.velocity_from_poses`; noise covariance
+    ``Σu(u) = velocity_control_cov(u, velocity_noise)`` with
+    :attr:`velocity_noise` = (σp [m], σθ [rad], βp, βθ).
+
+    Reading: ``u_noisy = u_true + sqrt(diag(C(u_true))) · ε``, ε ~ N(0, I_dim) from
+    one ``rng.standard_normal(dim)`` call (always made, even when C = 0), with C = M
+    or Σu (diagonal), evaluated at the *true* control; the rotation entries are
+    wrapped to [−π, π).
+    """
+
+    def __init__(self, config: OdometryConfig) -> None:
+        if not isinstance(config, OdometryConfig):
+            raise TypeError(f"config must be an OdometryConfig, got {type(config).__name__}")
+        self.config = config
+        self.model = config.model
+        self.alphas = tuple(float(a) for a in config.alphas)  # α1..α4, unitless
+        self.velocity_noise = tuple(float(v) for v in config.velocity_noise)  # σp, σθ, βp, βθ
+        self._odometry = self.model == "odometry"
+        self.dim: int = 3 if self._odometry else 2
+        self.angle_indices: tuple[int, ...] = (0, 2) if self._odometry else (1,)
+        """Entries of u that are angles (wrapped to [−π, π))."""
+
+    def true_control(self, pose0, pose1) -> np.ndarray:
+        """The noiseless control (dim,) that takes pose0 to pose1."""
+        if self._odometry:
+            return np.array(odometry_from_poses(pose0, pose1), dtype=np.float64)
+        return np.array(velocity_from_poses(pose0, pose1), dtype=np.float64)
+
+    def noise_cov(self, u) -> np.ndarray:
+        """The action-space noise covariance at u: M (3×3) or Σu (2×2), diagonal."""
+        if self._odometry:
+            return odometry_action_cov(u, self.alphas)
+        return velocity_control_cov(u, self.velocity_noise)
+
+    def perturb(self, u, rng: np.random.Generator) -> np.ndarray:
+        """A noisy reading of the (true) control u: ``u + sqrt(diag(C(u)))·ε``,
+        rotations wrapped. Returns a new (dim,) float64 array."""
+        u = np.asarray(u, dtype=np.float64)
+        if u.shape != (self.dim,):
+            raise ValueError(f"u must have shape ({self.dim},), got {u.shape}")
+        std = np.sqrt(np.diagonal(self.noise_cov(u)))
+        out = u + std * rng.standard_normal(self.dim)
+        for i in self.angle_indices:
+            out[i] = _wrap_scalar(out[i])
+        return out
+
+    def measure(self, pose0, pose1, rng: np.random.Generator) -> np.ndarray:
+        """The noisy odometry reading (dim,) for the true motion pose0 → pose1."""
+        return self.perturb(self.true_control(pose0, pose1), rng)

@@ -1,0 +1,271 @@
+"""The EKF-SLAM belief wrapper and the active-SLAM reward wrapper."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any, SupportsFloat
+
+import gymnasium as gym
+import numpy as np
+
+from slam_env import metrics
+from slam_env.belief import BeliefGeometry, EgocentricEncoding, FullEncoding
+from slam_env.ekf import EKFSLAM
+from slam_env.env import unpack_detections
+from slam_env.overlay import BeliefOverlay
+
+OBSERVATION_MODES = ("egocentric", "full")
+CORRECTION_MODES = ("sequential", "batch")
+# The default validation gate: χ²(2 dof) at 99.9%. A noise-matched filter rejects one
+# good observation in a thousand, while a gross outlier (say 10σ) never passes.
+DEFAULT_GATE = metrics.chi2_quantile(0.999, 2)
+# Covariance floor (m², rad²) of the entropy: uncertainty below 1 cm carries no
+# information worth paying for, and it keeps the entropy finite for an exactly
+# known start pose.
+ENTROPY_FLOOR = 1e-4
+
+
+def landmark_prior_variance(width: float, height: float) -> tuple[float, float]:
+    """Variance of a landmark position uniform over the arena: the broad prior that an
+    unseen landmark's slot carries in the belief entropy."""
+    return width * width / 12.0, height * height / 12.0
+
+
+class EKFSLAMWrapper(gym.ObservationWrapper):
+    """Runs EKF-SLAM (known correspondences) on ``slam_env/Landmarks-v0``'s raw stream
+    and observes the belief.
+
+    On reset the filter starts at the known start pose; each step it predicts with the
+    *odometry reading in the raw observation* (not the commanded action, as on a real
+    robot) and corrects with the detections and their IDs. By default the filter's
+    noise parameters are the env's true ones; ``alphas``, ``control_noise`` and
+    ``measurement_cov`` override them to study a mismatched filter. The motion and
+    measurement models are those of the env's stream (set them on the env:
+    ``motion_model``/``measurement_model`` options).
+
+    Args:
+        env: a ``LandmarksEnv`` (possibly wrapped).
+        observation: ``"egocentric"`` (flat features, the RL default) or ``"full"``
+            (the exact belief); see :mod:`slam_env.belief`.
+        correction: ``"sequential"`` or ``"batch"``.
+        gate: χ² threshold on the innovation's Mahalanobis distance (2 dof), or
+            ``None`` to accept everything. Default: the 99.9% quantile.
+        initial_pose_cov: (3, 3) covariance of the start pose; default zeros (known).
+
+    ``info`` gains, every step: ``pose_error`` (m), ``heading_error`` (rad),
+    ``map_rmse`` (m, over known landmarks; nan before the first), ``pose_nees``,
+    ``landmarks_known``, ``rejected`` (observations the gate refused this episode),
+    ``entropy`` (nats, see :meth:`belief_entropy`), ``pose_std`` (m, √trace of the
+    position covariance) and ``belief_clipped`` (the belief left the observation's
+    bounds: the filter has diverged).
+    """
+
+    def __init__(
+        self,
+        env: gym.Env,
+        observation: str = "egocentric",
+        correction: str = "sequential",
+        gate: float | None = DEFAULT_GATE,
+        alphas: tuple[float, float, float, float] | None = None,
+        control_noise: tuple[float, float, float, float] | None = None,
+        measurement_cov: np.ndarray | None = None,
+        initial_pose_cov: np.ndarray | None = None,
+    ) -> None:
+        super().__init__(env)
+        if observation not in OBSERVATION_MODES:
+            raise ValueError(f"observation must be one of {OBSERVATION_MODES}, got {observation!r}")
+        if correction not in CORRECTION_MODES:
+            raise ValueError(f"correction must be one of {CORRECTION_MODES}, got {correction!r}")
+        base = env.unwrapped
+        cfg = base.config
+        self.observation_mode = observation
+        self._initial_pose_cov = (
+            np.zeros((3, 3)) if initial_pose_cov is None else np.asarray(initial_pose_cov, float)
+        )
+        self.filter = EKFSLAM(
+            motion_model=cfg.odometry.model,
+            measurement_model=cfg.sensor.model,
+            alphas=cfg.odometry.alphas if alphas is None else alphas,
+            control_noise=cfg.odometry.velocity_noise if control_noise is None else control_noise,
+            measurement_cov=(
+                cfg.sensor.measurement_cov if measurement_cov is None else measurement_cov
+            ),
+            max_landmarks=base.n_landmark_slots,
+            initial_pose_cov=self._initial_pose_cov,
+            gate=gate,
+            correction=correction,
+        )
+        width, height = base.arena_size
+        self._geometry = BeliefGeometry(
+            max_landmarks=base.n_landmark_slots,
+            width=width,
+            height=height,
+            max_range=cfg.sensor.max_range,
+        )
+        self._prior_var = landmark_prior_variance(width, height)
+        if observation == "full":
+            self._encoding = FullEncoding(self._geometry)
+        else:
+            self._encoding = EgocentricEncoding(self._geometry)
+        self.observation_space = self._encoding.space
+        self._last_clipped = False
+
+    # ------------------------------------------------------------------ API
+    def reset(
+        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[Any, dict[str, Any]]:
+        raw, info = self.env.reset(seed=seed, options=options)
+        # Landmarks do not move: index the true map by ID once per episode.
+        self._truth_by_id = np.full((self._geometry.max_landmarks, 2), np.nan)
+        self._truth_by_id[info["landmark_ids"]] = info["landmark_positions"]
+        self.filter.reset(initial_pose=info["pose"], initial_pose_cov=self._initial_pose_cov)
+        self._correct(raw)
+        return self.observation(raw), self._add_diagnostics(info)
+
+    def step(self, action: Any) -> tuple[Any, SupportsFloat, bool, bool, dict[str, Any]]:
+        raw, reward, terminated, truncated, info = self.env.step(action)
+        self.filter.predict(raw["odometry"].astype(np.float64))
+        self._correct(raw)
+        return self.observation(raw), reward, terminated, truncated, self._add_diagnostics(info)
+
+    def observation(self, observation: Any) -> Any:
+        """The belief encoding of the filter's current state (the raw observation has
+        already been folded into the filter by ``reset``/``step``)."""
+        f = self.filter
+        if self.observation_mode == "full":
+            obs, clipped = self._encoding.encode(f.mean, f.cov, f.state_to_id)
+        else:
+            obs, clipped = self._encoding.encode(
+                f.pose, f.pose_cov, f.state_to_id, f.landmark_means(), f.landmark_covs()
+            )
+        self._last_clipped = clipped
+        return obs
+
+    def belief_entropy(self) -> float:
+        """Entropy (nats) of the belief over the pose and all ``max_landmarks`` slots:
+        an unseen landmark's slot carries an independent prior, uniform over the arena
+        in its first two moments, so discovering a landmark lowers the entropy and the
+        dimension never changes. Eigenvalues are floored at ``ENTROPY_FLOOR``."""
+        f = self.filter
+        unseen = self._geometry.max_landmarks - f.n_landmarks
+        vx, vy = self._prior_var
+        prior = unseen * (math.log(vx + ENTROPY_FLOOR) + math.log(vy + ENTROPY_FLOOR))
+        dim = 3 + 2 * self._geometry.max_landmarks
+        log_det = metrics.log_det_psd(f.cov, ENTROPY_FLOOR) + prior
+        return 0.5 * (dim * math.log(2.0 * math.pi * math.e) + log_det)
+
+    def belief_overlay(self, true_landmarks: Any = None) -> BeliefOverlay:
+        f = self.filter
+        return BeliefOverlay(
+            pose=f.pose,
+            pose_cov=f.pose_cov,
+            landmark_ids=f.state_to_id,
+            landmark_means=f.landmark_means(),
+            landmark_covs=f.landmark_covs(),
+            true_landmarks=true_landmarks,
+        )
+
+    def render(self) -> Any:
+        base = self.env.unwrapped
+        if base.render_mode is not None and base._world is not None:
+            base.belief_overlay = self.belief_overlay()
+        return self.env.render()
+
+    # ------------------------------------------------------------------ helpers
+    def _correct(self, raw: dict[str, np.ndarray]) -> None:
+        z, ids = unpack_detections(raw)
+        if ids.size:
+            self.filter.update(z, ids)
+
+    def _add_diagnostics(self, info: dict[str, Any]) -> dict[str, Any]:
+        f = self.filter
+        pose, pose_cov = f.pose, f.pose_cov
+        err = metrics.pose_error(pose, info["pose"])
+        ids = f.state_to_id
+        if ids.size:
+            map_rmse = metrics.map_rmse(f.landmark_means(), self._truth_by_id[ids])
+        else:
+            map_rmse = math.nan
+        info["pose_error"] = float(math.hypot(err[0], err[1]))
+        info["heading_error"] = float(abs(err[2]))
+        info["map_rmse"] = map_rmse
+        info["pose_nees"] = metrics.nees(err, pose_cov)
+        info["landmarks_known"] = int(f.n_landmarks)
+        info["rejected"] = int(f.n_rejected)
+        info["entropy"] = self.belief_entropy()
+        info["pose_std"] = float(math.sqrt(max(pose_cov[0, 0] + pose_cov[1, 1], 0.0)))
+        info["belief_clipped"] = bool(self._last_clipped)
+        return info
+
+
+@dataclass(frozen=True)
+class ActiveSLAMRewardWeights:
+    """Weights of the active-SLAM reward terms (see :class:`ActiveSLAMReward`)."""
+
+    information_gain: float = 0.1  # per nat of entropy removed
+    pose_uncertainty: float = 0.1  # per m of pose standard deviation, each step
+    collision: float = 1.0  # per step in contact
+    step: float = 0.01  # per step
+
+    def __post_init__(self) -> None:
+        for name in ("information_gain", "pose_uncertainty", "collision", "step"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, (int, float)):
+                raise TypeError(f"reward weight {name} must be a number, got {value!r}")
+            if not math.isfinite(value) or value < 0:
+                raise ValueError(f"reward weight {name} must be finite and >= 0, got {value}")
+
+
+class ActiveSLAMReward(gym.Wrapper):
+    """The active-SLAM reward over an :class:`EKFSLAMWrapper`, as named terms:
+
+    * ``information_gain`` = w · (H_{t−1} − H_t): the entropy the step removed from the
+      belief over all landmark slots. Discovering a landmark is worth about 10–15 nats
+      (its slot goes from the arena-wide prior to a few cm), re-observing one a few
+      tenths; dead reckoning costs a little. This is the term that drives exploration.
+    * ``pose_uncertainty`` = −w · σ_pose (m): an information-gain reward alone does not
+      care *when* the robot is lost; this term pays for closing loops early.
+    * ``collision`` = −w on a step in contact: the map does not see obstacles.
+    * ``step`` = −w: a small time cost, so that finishing early is better.
+
+    The terms are reported in ``info["reward_terms"]``; the raw env's scripting terms
+    move to ``info["raw_reward_terms"]``. The reward is their sum, a Python float.
+    """
+
+    def __init__(self, env: gym.Env, weights: ActiveSLAMRewardWeights | None = None) -> None:
+        super().__init__(env)
+        self.weights = weights or ActiveSLAMRewardWeights()
+        if not isinstance(self.weights, ActiveSLAMRewardWeights):
+            raise TypeError("weights must be an ActiveSLAMRewardWeights")
+        self._entropy = 0.0
+
+    def reset(self, **kwargs: Any) -> tuple[Any, dict[str, Any]]:
+        obs, info = self.env.reset(**kwargs)
+        self._require_belief_info(info)
+        self._entropy = info["entropy"]
+        info["raw_reward_terms"] = info.pop("reward_terms", {})
+        info["reward_terms"] = dict.fromkeys(
+            ("information_gain", "pose_uncertainty", "collision", "step"), 0.0
+        )
+        return obs, info
+
+    def step(self, action: Any) -> tuple[Any, SupportsFloat, bool, bool, dict[str, Any]]:
+        obs, _, terminated, truncated, info = self.env.step(action)
+        w = self.weights
+        entropy = info["entropy"]
+        terms = {
+            "information_gain": w.information_gain * (self._entropy - entropy),
+            "pose_uncertainty": -w.pose_uncertainty * info["pose_std"],
+            "collision": -w.collision if info["collision"] else 0.0,
+            "step": -w.step,
+        }
+        self._entropy = entropy
+        info["raw_reward_terms"] = info.pop("reward_terms", {})
+        info["reward_terms"] = terms
+        return obs, float(sum(terms.values())), terminated, truncated, info
+
+    @staticmethod
+    def _require_belief_info(info: dict[str, Any]) -> None:
+        if "entropy" not in info:
+            raise TypeError("ActiveSLAMReward must wrap an EKFSLAMWrapper (info has no entropy)")

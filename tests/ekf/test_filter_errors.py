@@ -1,0 +1,200 @@
+"""Bad configurations and bad inputs raise a clear ValueError/TypeError naming what
+was wrong, and a failed call leaves the filter unchanged."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from slam_env.ekf import EKFSLAM
+
+Q = np.diag([0.05**2, math.radians(1.0) ** 2])
+GOOD = dict(
+    motion_model="odometry",
+    measurement_model="range_bearing",
+    alphas=(0.01, 0.01, 0.01, 0.01),
+    control_noise=(0.01, 0.01, 0.0, 0.0),
+    measurement_cov=Q,
+    max_landmarks=5,
+    initial_pose=(0.0, 0.0, 0.0),
+    initial_pose_cov=np.diag([0.01, 0.01, 0.001]),
+    gate=None,
+    correction="sequential",
+)
+
+
+def with_(**changes):
+    return {**GOOD, **changes}
+
+
+@pytest.mark.parametrize(
+    ("changes", "error", "match"),
+    [
+        (dict(motion_model="ackermann"), ValueError, "motion_model must be one of"),
+        (dict(measurement_model="bearing_only"), ValueError, "measurement_model must be one of"),
+        (dict(correction="parallel"), ValueError, "correction must be one of"),
+        (dict(alphas=(0.1, -0.01, 0.1, 0.1)), ValueError, r"alphas\[1\] must be >= 0"),
+        (dict(alphas=(0.1, 0.1, 0.1)), ValueError, "alphas must have 4 entries"),
+        (dict(alphas=(0.1, "a", 0.1, 0.1)), TypeError, r"alphas\[1\] must be a number"),
+        (dict(alphas=(0.1, math.nan, 0.1, 0.1)), ValueError, r"alphas\[1\] must be finite"),
+        (dict(alphas=0.1), TypeError, "alphas must be a sequence"),
+        (dict(alphas=None), ValueError, "alphas .* required for motion_model='odometry'"),
+        (
+            dict(motion_model="velocity", control_noise=None),
+            ValueError,
+            "control_noise .* required for motion_model='velocity'",
+        ),
+        (dict(control_noise=(0.1, 0.1, -1.0, 0.1)), ValueError, r"control_noise\[2\] must be >= 0"),
+        (dict(measurement_cov=np.eye(3)), ValueError, r"measurement_cov must have shape \(2, 2\)"),
+        (
+            dict(measurement_cov=[[1.0, 0.5], [0.0, 1.0]]),
+            ValueError,
+            "measurement_cov must be symmetric",
+        ),
+        (
+            dict(measurement_cov=np.diag([1.0, -1.0])),
+            ValueError,
+            "measurement_cov must be symmetric positive definite",
+        ),
+        (
+            dict(measurement_cov=np.diag([1.0, 0.0])),
+            ValueError,
+            "measurement_cov must be symmetric positive definite",
+        ),
+        (
+            dict(measurement_cov=np.diag([1.0, math.inf])),
+            ValueError,
+            "measurement_cov must be finite",
+        ),
+        (dict(measurement_cov="Q"), TypeError, "measurement_cov must be an array of numbers"),
+        (
+            dict(initial_pose_cov=np.diag([1.0, 1.0, -1e-3])),
+            ValueError,
+            "initial_pose_cov must be positive semi-definite",
+        ),
+        (
+            dict(initial_pose_cov=np.eye(2)),
+            ValueError,
+            r"initial_pose_cov must have shape \(3, 3\)",
+        ),
+        (dict(initial_pose=(0.0, 0.0)), ValueError, r"initial_pose must have shape \(3,\)"),
+        (dict(initial_pose=(0.0, math.nan, 0.0)), ValueError, "initial_pose must be finite"),
+        (dict(max_landmarks=-1), ValueError, "max_landmarks must be >= 0"),
+        (dict(max_landmarks=5.0), TypeError, "max_landmarks must be an int"),
+        (dict(max_landmarks=True), TypeError, "max_landmarks must be an int"),
+        (dict(gate=0.0), ValueError, "gate must be > 0"),
+        (dict(gate=-3.0), ValueError, "gate must be > 0"),
+        (dict(gate=math.inf), ValueError, "gate must be finite"),
+        (dict(gate="5"), TypeError, "gate must be a number"),
+    ],
+)
+def test_bad_configuration_is_refused(changes, error, match):
+    with pytest.raises(error, match=match):
+        EKFSLAM(**with_(**changes))
+
+
+def test_unknown_keyword_is_refused():
+    with pytest.raises(TypeError, match="unexpected keyword argument 'alpha'"):
+        EKFSLAM(**GOOD, alpha=(0.1, 0.1, 0.1, 0.1))
+
+
+def test_a_zero_initial_pose_covariance_and_the_unused_noise_are_allowed():
+    f = EKFSLAM(**with_(initial_pose_cov=np.zeros((3, 3)), control_noise=None))
+    np.testing.assert_array_equal(f.pose_cov, np.zeros((3, 3)))
+    g = EKFSLAM(**with_(motion_model="velocity", alphas=None, max_landmarks=0))
+    g.predict((0.5, 0.1))
+    assert g.n_landmarks == 0
+
+
+@pytest.fixture
+def busy_filter():
+    f = EKFSLAM(**with_(gate=9.0))
+    f.update([[2.0, 0.1], [3.0, -0.4]], [0, 3])
+    f.predict((0.1, 0.5, 0.0))
+    f.update([[1.6, 0.0], [9.0, 0.0]], [0, 3])  # the second one is rejected
+    assert f.n_rejected == 1
+    return f
+
+
+@pytest.mark.parametrize(
+    ("u", "error", "match"),
+    [
+        ((0.1, 0.5), ValueError, r"u must have shape \(3,\)"),
+        ([[0.1, 0.5, 0.0]], ValueError, r"u must have shape \(3,\)"),
+        ((0.1, math.nan, 0.0), ValueError, "u must be finite"),
+        ((0.1, math.inf, 0.0), ValueError, "u must be finite"),
+        (("a", 0.5, 0.0), TypeError, "u must be an array of numbers"),
+    ],
+)
+def test_bad_control_is_refused_and_changes_nothing(
+    busy_filter, take_snapshot, same_snapshot, u, error, match
+):
+    before = take_snapshot(busy_filter)
+    with pytest.raises(error, match=match):
+        busy_filter.predict(u)
+    same_snapshot(before, take_snapshot(busy_filter))
+
+
+@pytest.mark.parametrize(
+    ("z", "ids", "error", "match"),
+    [
+        ([[2.0, 0.1]], [5], ValueError, r"landmark id 5 is beyond capacity \(max_landmarks=5\)"),
+        ([[2.0, 0.1], [1.0, 0.0]], [0, 99], ValueError, "landmark id 99 is beyond capacity"),
+        ([[2.0, 0.1]], [-1], ValueError, "landmark id -1 is negative"),
+        ([[2.0, 0.1], [1.0, 0.0], [1.0, 1.0]], [1, 4, 1], ValueError, "duplicate landmark id 1"),
+        ([[2.0, 0.1], [1.0, 0.0]], [0, 0], ValueError, "duplicate landmark id 0"),
+        ([[2.0, math.nan]], [1], ValueError, r"z must be finite; row 0"),
+        ([[2.0, 0.1], [math.inf, 0.0]], [1, 0], ValueError, r"z must be finite; row 1"),
+        ([2.0, 0.1], [1], ValueError, r"z must have shape \(k, 2\)"),
+        ([[2.0, 0.1, 0.0]], [1], ValueError, r"z must have shape \(k, 2\)"),
+        ([[2.0, 0.1]], [1, 2], ValueError, r"ids must have shape \(1,\)"),
+        ([[2.0, 0.1]], 1, ValueError, r"ids must have shape \(1,\)"),
+        ([[2.0, 0.1]], [1.0], TypeError, "ids must be integers"),
+        ([[2.0, 0.1]], [True], TypeError, "ids must be integers"),
+        ([["a", "b"]], [1], TypeError, r"z must be a \(k, 2\) array of numbers"),
+    ],
+)
+def test_bad_observations_are_refused_and_change_nothing(
+    busy_filter, take_snapshot, same_snapshot, z, ids, error, match
+):
+    before = take_snapshot(busy_filter)
+    with pytest.raises(error, match=match):
+        busy_filter.update(z, ids)
+    same_snapshot(before, take_snapshot(busy_filter))
+    # ... and the filter still works afterwards.
+    busy_filter.update([[1.5, 0.0]], [0])
+
+
+@pytest.mark.parametrize("correction", ["sequential", "batch"])
+def test_a_late_bad_id_is_caught_before_anything_is_applied(
+    take_snapshot, same_snapshot, correction
+):
+    f = EKFSLAM(**with_(correction=correction))
+    f.update([[2.0, 0.1], [3.0, -0.4]], [0, 3])
+    before = take_snapshot(f)
+    # Valid corrections and a new landmark come first; the bad id is last.
+    with pytest.raises(ValueError, match="beyond capacity"):
+        f.update([[2.1, 0.1], [3.1, -0.4], [1.0, 1.0], [1.0, 0.0]], [0, 3, 2, 7])
+    same_snapshot(before, take_snapshot(f))
+
+
+def test_bad_reset_is_refused_and_changes_nothing(busy_filter, take_snapshot, same_snapshot):
+    before = take_snapshot(busy_filter)
+    with pytest.raises(ValueError, match="initial_pose_cov must be positive semi-definite"):
+        busy_filter.reset(initial_pose_cov=-np.eye(3))
+    with pytest.raises(ValueError, match=r"initial_pose must have shape \(3,\)"):
+        busy_filter.reset(initial_pose=(1.0, 2.0))
+    same_snapshot(before, take_snapshot(busy_filter))
+
+
+def test_unknown_landmark_lookup(busy_filter):
+    with pytest.raises(ValueError, match="landmark id 1 is not in the state"):
+        busy_filter.landmark(1)
+    with pytest.raises(ValueError, match="landmark id -2 is not in the state"):
+        busy_filter.landmark(-2)
+    with pytest.raises(TypeError, match="landmark id must be an int"):
+        busy_filter.landmark("0")
+    mean, cov = busy_filter.landmark(np.int64(3))
+    assert mean.shape == (2,) and cov.shape == (2, 2)

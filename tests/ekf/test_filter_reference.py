@@ -1,0 +1,131 @@
+"""EKFSLAM against the dense textbook EKF-SLAM of ``dense_reference.py``: same mean,
+covariance, landmark order, statuses and NIS to 1e-9 over random sequences of
+predictions, corrections (with gate rejections) and new landmarks, for every
+motion × measurement model and both correction modes."""
+
+from __future__ import annotations
+
+import itertools
+import math
+
+import numpy as np
+import pytest
+
+from slam_env.ekf import EKFSLAM, chi2_gate
+from slam_env.ekf.models import MEASUREMENT_MODELS, MOTION_MODELS
+from slam_env.geometry import wrap_angle
+
+ALPHAS = (0.02, 0.01, 0.02, 0.01)
+CONTROL_NOISE = (0.02, 0.01, 0.01, 0.05)
+Q = {
+    "range_bearing": np.array([[0.04**2, 1e-5], [1e-5, math.radians(2.0) ** 2]]),
+    "cartesian": np.array([[0.05**2, 2e-4], [2e-4, 0.03**2]]),
+}
+COMBOS = list(
+    itertools.product(
+        ["odometry", "velocity"], ["range_bearing", "cartesian"], ["sequential", "batch"]
+    )
+)
+
+
+def assert_same_belief(f, ref, atol=1e-9):
+    mean, ref_mean = f.mean, ref.mean
+    assert mean.shape == ref_mean.shape
+    np.testing.assert_array_equal(f.state_to_id, ref.state_to_id)
+    assert abs(wrap_angle(mean[2] - ref_mean[2])) <= atol
+    mean[2] = ref_mean[2]
+    np.testing.assert_allclose(mean, ref_mean, rtol=0, atol=atol)
+    np.testing.assert_allclose(f.cov, ref.cov, rtol=0, atol=atol)
+
+
+def random_control(rng, motion):
+    if motion == "odometry":
+        return np.array([rng.uniform(-0.4, 0.4), rng.uniform(-0.2, 0.8), rng.uniform(-0.4, 0.4)])
+    return np.array([rng.uniform(-0.2, 0.8), rng.uniform(-0.5, 0.5)])
+
+
+@pytest.mark.parametrize(("motion", "measurement", "correction"), COMBOS)
+def test_agrees_with_the_dense_textbook_filter(dense_reference, motion, measurement, correction):
+    rng = np.random.default_rng(abs(hash((motion, measurement, correction))) % 2**32)
+    n_landmarks, steps = 12, 60
+    truth = rng.uniform(-6, 6, size=(n_landmarks, 2))
+    hm, mm = MEASUREMENT_MODELS[measurement], MOTION_MODELS[motion]
+    pose0 = np.array([0.1, -0.2, 3.1])  # near ±π: heading wrapping is exercised
+    cov0 = np.diag([0.01, 0.02, 0.003])
+    gate = chi2_gate(0.99)
+    kwargs = dict(
+        alphas=ALPHAS,
+        control_noise=CONTROL_NOISE,
+        measurement_cov=Q[measurement],
+        initial_pose=pose0,
+        initial_pose_cov=cov0,
+        gate=gate,
+        correction=correction,
+    )
+    f = EKFSLAM(
+        motion_model=motion, measurement_model=measurement, max_landmarks=n_landmarks, **kwargs
+    )
+    ref = dense_reference.DenseEKFSLAM(motion, measurement, **kwargs)
+    true_pose = pose0.copy()
+    chol_q = np.linalg.cholesky(Q[measurement])
+    counts = {"corrected": 0, "initialised": 0, "rejected": 0}
+    for step in range(steps):
+        u = random_control(rng, motion)
+        true_pose = mm.motion(true_pose, u)
+        f.predict(u)
+        ref.predict(u)
+        assert_same_belief(f, ref)
+        k = int(rng.integers(0, 6))
+        ids = rng.permutation(n_landmarks)[:k]
+        z = hm.h(true_pose, truth[ids]).reshape(k, 2) + rng.normal(size=(k, 2)) @ chol_q.T
+        if k and step % 7 == 3:
+            z[0, 0] += 2.0  # a gross outlier: rejected by the gate if the landmark is known
+        res = f.update(z, ids)
+        status, nis = ref.update(z, ids)
+        np.testing.assert_array_equal(res.ids, ids)
+        np.testing.assert_array_equal(res.status, status)
+        np.testing.assert_allclose(res.nis, nis, rtol=1e-9, atol=1e-9, equal_nan=True)
+        assert f.n_rejected == ref.n_rejected
+        assert_same_belief(f, ref)
+        counts["corrected"] += int(np.sum(status == 0))
+        counts["initialised"] += int(np.sum(status == 1))
+        counts["rejected"] += int(np.sum(status == 2))
+    # The sequence exercised every branch.
+    assert counts["initialised"] == n_landmarks
+    assert counts["corrected"] > 50
+    assert counts["rejected"] >= 2
+
+
+@pytest.mark.parametrize(
+    ("motion", "measurement"), [("odometry", "range_bearing"), ("velocity", "cartesian")]
+)
+def test_batch_and_sequential_differ_only_by_relinearisation(motion, measurement):
+    """With the pose known exactly the landmarks are independent and re-linearising
+    changes nothing: batch equals sequential. Once the pose is uncertain they are
+    two (close) approximations of the same posterior."""
+    kwargs = dict(
+        motion_model=motion,
+        measurement_model=measurement,
+        alphas=ALPHAS,
+        control_noise=CONTROL_NOISE,
+        measurement_cov=Q[measurement],
+        max_landmarks=4,
+    )
+    seq = EKFSLAM(correction="sequential", **kwargs)
+    bat = EKFSLAM(correction="batch", **kwargs)
+    z0 = np.array([[2.0, 0.5], [3.0, -0.5], [2.5, 1.0]])
+    for f in (seq, bat):
+        f.update(z0, [0, 1, 2])  # initialise three landmarks from a known pose
+        f.update(z0[[2, 0, 1]] + 0.01, [2, 0, 1])  # correct them: independent observations
+    np.testing.assert_allclose(seq.mean, bat.mean, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(seq.cov, bat.cov, rtol=0, atol=1e-12)
+    mm, hm = MOTION_MODELS[motion], MEASUREMENT_MODELS[measurement]
+    u = (0.3, 0.5, -0.2) if motion == "odometry" else (0.5, 0.1)
+    landmarks = hm.inverse(np.zeros(3), z0[[1, 2, 0]])
+    z1 = hm.h(mm.motion(np.zeros(3), u), landmarks) + 0.02
+    for f in (seq, bat):
+        f.predict(u)  # the pose is uncertain and correlated with the map now
+        f.update(z1, [1, 2, 0])
+    gap = np.abs(seq.mean - bat.mean).max()
+    assert 1e-9 < gap < 1e-3
+    assert 1e-12 < np.abs(seq.cov - bat.cov).max() < 1e-2

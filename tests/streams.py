@@ -1,0 +1,53 @@
+"""Helpers that turn an env rollout into a comparable digest."""
+
+from __future__ import annotations
+
+import hashlib
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+
+
+def _feed(h: hashlib._Hash, value: Any) -> None:
+    if isinstance(value, dict):
+        for key in sorted(value):
+            h.update(str(key).encode())
+            _feed(h, value[key])
+    elif isinstance(value, np.ndarray):
+        h.update(str(value.dtype).encode() + str(value.shape).encode())
+        h.update(np.ascontiguousarray(value).tobytes())
+    elif isinstance(value, (list, tuple)):
+        for item in value:
+            _feed(h, item)
+    else:
+        h.update(repr(value).encode())
+
+
+def digest(*values: Any) -> str:
+    """A hash over observations, rewards, flags and infos, bit-exact."""
+    h = hashlib.sha256()
+    for value in values:
+        _feed(h, value)
+    return h.hexdigest()
+
+
+def rollout_digest(
+    env_id: str, seed: int, steps: int, action_seed: int = 123, **kwargs: Any
+) -> str:
+    """Digest of a seeded rollout with seeded random actions."""
+    import slam_env  # noqa: F401  (registers the env IDs)
+
+    env = gym.make(env_id, **kwargs)
+    env.action_space.seed(action_seed)
+    h = hashlib.sha256()
+    obs, info = env.reset(seed=seed)
+    _feed(h, (obs, info))
+    for _ in range(steps):
+        obs, reward, terminated, truncated, info = env.step(env.action_space.sample())
+        _feed(h, (obs, reward, terminated, truncated, info))
+        if terminated or truncated:
+            obs, info = env.reset()
+            _feed(h, (obs, info))
+    env.close()
+    return h.hexdigest()

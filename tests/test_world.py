@@ -1,0 +1,409 @@
+"""The pymunk world: contacts, unicycle kinematics, line of sight, determinism, pickling."""
+
+from __future__ import annotations
+
+import copy
+import math
+import os
+import pickle
+import subprocess
+import sys
+import textwrap
+
+import numpy as np
+import pytest
+
+from slam_env.config import RobotConfig, WorldConfig
+from slam_env.layouts import (
+    Layout,
+    _polygon_signed_distance,
+    _segment_distance,
+    preset_layout,
+    random_layout,
+)
+from slam_env.world import CONTACT_SLOP, LANDMARK_POST_RADIUS, World
+
+ROBOT = RobotConfig()  # radius 0.25 m, max speed 1 m/s
+R = ROBOT.radius
+DT, SUBSTEPS, T = 0.2, 4, 0.1
+H = DT / SUBSTEPS
+# The deepest a contact can be entered: one pymunk step of travel, plus the slop.
+MAX_OVERLAP = ROBOT.max_speed * H + CONTACT_SLOP + 1e-9
+
+BOX = ((6.0, 6.0), (7.0, 6.0), (7.0, 7.0), (6.0, 7.0))
+
+
+def arena(**overrides) -> Layout:
+    """10 × 10 m: an inner wall x = 5 (y from 1 to 4), a box, three landmarks."""
+    base = dict(
+        width=10.0,
+        height=10.0,
+        landmark_ids=(10, 11, 12),
+        landmark_positions=((8.0, 2.0), (8.0, 9.0), (2.0, 9.0)),
+        obstacles=(BOX,),
+        walls=((5.0, 1.0, 5.0, 4.0),),
+        start_pose=(2.0, 2.5, 0.0),
+    )
+    base.update(overrides)
+    return Layout(**base)
+
+
+def world(layout: Layout | None = None, robot: RobotConfig = ROBOT) -> World:
+    return World(layout or arena(), robot, DT, SUBSTEPS, T)
+
+
+# ----------------------------------------------------------------------------- contacts
+
+
+@pytest.mark.parametrize("angle_deg", [-60, -30, 0, 30, 60])
+def test_driving_into_the_boundary_stops_and_reports_collision(angle_deg) -> None:
+    w = world()
+    w.set_pose(8.0, 5.0, math.radians(angle_deg))
+    limit = 10.0 - R  # the robot's centre when touching the right boundary
+    touched = []
+    for _ in range(60):
+        touched.append(w.step(ROBOT.max_speed, 0.0))
+        x, y, _th = w.pose
+        assert x <= limit + MAX_OVERLAP  # never through, barely into the wall
+        assert R - MAX_OVERLAP <= y <= 10.0 - R + MAX_OVERLAP
+    assert not touched[0]  # 1.75 m away at first
+    assert all(touched[-10:])
+    # At rest against the wall: the overlap has settled to the contact slop.
+    assert w.pose[0] == pytest.approx(limit, abs=CONTACT_SLOP + 1e-6)
+    assert w.velocity[0] == pytest.approx(0.0, abs=1e-9)
+
+
+@pytest.mark.parametrize("angle_deg", [-20, 0, 20])
+def test_driving_into_an_inner_wall_never_crosses_it(angle_deg) -> None:
+    w = world(arena(walls=((5.0, 0.0, 5.0, 9.0),)))  # no way around it in 50 steps
+    w.set_pose(2.0, 2.5, math.radians(angle_deg))
+    face = 5.0 - T - R
+    collided = False
+    for _ in range(50):
+        collided |= w.step(ROBOT.max_speed, 0.0)
+        assert w.pose[0] <= face + MAX_OVERLAP
+    assert collided
+    assert w.pose[0] == pytest.approx(face, abs=CONTACT_SLOP + 1e-6)
+
+
+@pytest.mark.parametrize(
+    "start", [(3.0, 6.5, 0.0), (6.5, 3.5, math.pi / 2), (8.0, 4.5, -math.pi / 2)]
+)
+def test_obstacles_and_posts_stop_the_robot(start) -> None:
+    """Head-on into the box (from the left), into the box (from below), into post 10."""
+    w = world()
+    w.set_pose(*start)
+    for _ in range(40):
+        w.step(ROBOT.max_speed, 0.0)
+        x, y, _ = w.pose
+        overlap_box = R - _box_distance(x, y)
+        overlap_post = R + LANDMARK_POST_RADIUS - math.hypot(x - 8.0, y - 2.0)
+        assert max(overlap_box, overlap_post) <= MAX_OVERLAP
+    assert w.step(0.5, 0.0)  # still pressed against it
+
+
+def _box_distance(x: float, y: float) -> float:
+    dx = max(6.0 - x, 0.0, x - 7.0)
+    dy = max(6.0 - y, 0.0, y - 7.0)
+    return math.hypot(dx, dy)
+
+
+def test_no_tunnelling_at_high_speed() -> None:
+    fast = RobotConfig(max_speed=25.0)  # 5 m per env step, 20× the robot radius
+    w = world(robot=fast)
+    w.set_pose(2.0, 2.5, 0.0)
+    for _ in range(20):
+        w.step(fast.max_speed, 0.0)
+        assert w.pose[0] <= 5.0 - T - R + 0.5 * R + CONTACT_SLOP  # split steps: ≤ r/2 each
+    assert w.pose[0] == pytest.approx(5.0 - T - R, abs=CONTACT_SLOP + 1e-6)
+    w.set_pose(2.0, 2.5, math.pi)  # and the other way, into the boundary
+    for _ in range(5):
+        w.step(fast.max_speed, 0.0)
+        assert w.pose[0] >= R - 0.5 * R - CONTACT_SLOP
+
+
+def test_robot_slides_along_a_wall() -> None:
+    w = world()
+    angle = math.radians(30)
+    w.set_pose(9.0, 3.0, angle)
+    ys, touched = [], []
+    for _ in range(20):
+        touched.append(w.step(ROBOT.max_speed, 0.0))
+        ys.append(w.pose[1])
+    assert all(touched[-12:])
+    x, _, th = w.pose
+    assert x == pytest.approx(10.0 - R, abs=CONTACT_SLOP + 1e-6)
+    assert th == pytest.approx(angle)  # contacts never turn the robot
+    # Along the wall it keeps the tangential part of its velocity: v·sin(30°) = 0.5 m/s.
+    assert np.diff(ys[-5:]) == pytest.approx(ROBOT.max_speed * math.sin(angle) * DT, rel=1e-6)
+    # Backing away from the wall is not held back by the contact.
+    w.step(-ROBOT.max_speed, 0.0)
+    back = ROBOT.max_speed * DT * math.cos(angle)
+    assert w.pose[0] == pytest.approx(10.0 - R - back, abs=2 * CONTACT_SLOP)
+    assert not w.step(-ROBOT.max_speed, 0.0)
+
+
+def test_stuck_in_a_corner() -> None:
+    w = world()
+    w.set_pose(1.0, 1.0, math.radians(-135))
+    for _ in range(20):
+        assert w.pose[0] >= R - MAX_OVERLAP and w.pose[1] >= R - MAX_OVERLAP
+        w.step(ROBOT.max_speed, 0.0)
+    assert w.pose[:2] == pytest.approx((R, R), abs=CONTACT_SLOP + 1e-6)
+
+
+def _overlap(layout: Layout, x: float, y: float) -> float:
+    """How deep (m) the robot disc at (x, y) is inside anything (negative: clear)."""
+    o = max(R - x, R - y, x + R - layout.width, y + R - layout.height)
+    for poly in layout.obstacles:
+        o = max(o, R - _polygon_signed_distance(x, y, poly))
+    for wall in layout.walls:
+        o = max(o, R + T - _segment_distance(x, y, *wall))
+    for lx, ly in layout.landmark_positions:
+        o = max(o, R + LANDMARK_POST_RADIUS - math.hypot(x - lx, y - ly))
+    return o
+
+
+@pytest.mark.parametrize("which", ["random", "cluttered", "rooms"])
+def test_never_deeper_than_one_pymunk_step_into_anything(which) -> None:
+    cfg = WorldConfig()
+    if which == "random":
+        layout = random_layout(cfg, R, np.random.default_rng(11))
+    else:
+        layout = preset_layout(which, cfg)
+    w = World(layout, ROBOT, DT, SUBSTEPS, T)
+    rng = np.random.default_rng(5)
+    contacts = 0
+    for i in range(600):
+        v = 1.0 if i % 30 < 25 else float(rng.uniform(-1.0, 1.0))
+        om = float(rng.uniform(-1.5, 1.5)) if i % 30 >= 25 else float(rng.uniform(-0.2, 0.2))
+        touched = w.step(v, om)
+        contacts += touched
+        overlap = _overlap(layout, *w.pose[:2])
+        assert overlap <= MAX_OVERLAP
+        if overlap > 1e-9:
+            assert touched
+    assert contacts > 100
+
+
+# ----------------------------------------------------------------------------- kinematics
+
+
+def test_straight_line_matches_unicycle() -> None:
+    w = world()
+    theta = 1.0
+    w.set_pose(2.0, 5.0, theta)
+    for k in range(1, 8):
+        assert not w.step(0.7, 0.0)
+        x, y, th = w.pose
+        assert x == pytest.approx(2.0 + 0.7 * DT * k * math.cos(theta), abs=1e-12)
+        assert y == pytest.approx(5.0 + 0.7 * DT * k * math.sin(theta), abs=1e-12)
+        assert th == theta
+    w.step(-0.5, 0.0)  # reversing
+    assert w.pose[0] == pytest.approx(2.0 + (7 * 0.7 - 0.5) * DT * math.cos(theta), abs=1e-12)
+
+
+def test_turning_in_place_matches_unicycle_and_wraps() -> None:
+    w = world()
+    w.set_pose(3.0, 6.0, 0.0)
+    theta = 0.0
+    for _ in range(40):
+        assert not w.step(0.0, 1.5)
+        theta += 1.5 * DT
+        x, y, th = w.pose
+        assert (x, y) == (3.0, 6.0)
+        assert -math.pi <= th < math.pi
+        assert math.cos(th) == pytest.approx(math.cos(theta), abs=1e-12)
+        assert math.sin(th) == pytest.approx(math.sin(theta), abs=1e-12)
+    assert all(type(c) is float for c in w.pose)
+
+
+def test_arc_matches_the_substep_euler_unicycle() -> None:
+    w = world()
+    x, y, th = 3.0, 5.5, -0.3
+    w.set_pose(x, y, th)
+    v, om = 0.8, 0.9
+    for _ in range(5):
+        w.step(v, om)
+        for _ in range(SUBSTEPS):
+            x += v * H * math.cos(th)
+            y += v * H * math.sin(th)
+            th += om * H
+        assert w.pose == pytest.approx((x, y, th), abs=1e-12)
+    # The exact arc differs from the Euler one by O(h): still close.
+    r = v / om
+    th0, th1 = -0.3, -0.3 + om * 5 * DT
+    exact = (3.0 + r * (math.sin(th1) - math.sin(th0)), 5.5 - r * (math.cos(th1) - math.cos(th0)))
+    assert w.pose[:2] == pytest.approx(exact, abs=0.05)
+
+
+def test_step_rejects_non_finite_commands() -> None:
+    w = world()
+    with pytest.raises(ValueError, match="finite"):
+        w.step(math.nan, 0.0)
+    with pytest.raises(ValueError, match="finite"):
+        w.step(0.0, math.inf)
+    w.step(np.float32(0.5), np.float64(0.1))  # numpy scalars are fine
+
+
+# ----------------------------------------------------------------------------- line of sight
+
+
+def test_line_of_sight() -> None:
+    w = world(
+        arena(
+            landmark_ids=(10, 11, 12, 13),
+            landmark_positions=((8.0, 2.0), (8.0, 9.0), (2.0, 9.0), (2.0, 5.0)),
+        )
+    )
+    pos = w.landmark_positions
+    # Free space, and the target's own post does not block (the segment ends inside it).
+    assert w.line_of_sight((2.0, 2.5), pos[3], 3)
+    assert w.line_of_sight(np.array([2.0, 2.5]), pos[3], 3)
+    # The inner wall x = 5 (y 1..4) blocks the view from (2, 2.5) to landmark 10 at (8, 2).
+    assert not w.line_of_sight((2.0, 2.5), pos[0], 0)
+    # The box [6, 7] × [6, 7] blocks a view across it.
+    assert not w.line_of_sight((6.5, 4.0), (6.5, 9.0), 1)
+    assert w.line_of_sight((5.5, 4.0), (5.5, 9.0), 1)
+    # Another landmark's post blocks: (2, 2.5) → (2, 9) passes through post 13 at (2, 5).
+    assert not w.line_of_sight((2.0, 2.5), pos[2], 2)
+    # …but not when that post is the target.
+    assert w.line_of_sight((2.0, 2.5), pos[3], 3)
+    # The robot itself never blocks, wherever it is.
+    w.set_pose(2.0, 4.0, 0.0)
+    assert w.line_of_sight((2.0, 3.0), pos[3], 3)
+
+
+def test_landmark_arrays() -> None:
+    w = world()
+    assert w.landmark_positions.dtype == np.float64 and w.landmark_positions.shape == (3, 2)
+    assert w.landmark_ids.dtype == np.int64
+    assert w.landmark_ids.tolist() == [10, 11, 12]
+    with pytest.raises(ValueError):
+        w.landmark_positions[0, 0] = 1.0
+    with pytest.raises(ValueError):
+        w.landmark_ids[0] = 1
+
+
+# ----------------------------------------------------------------------------- set_pose
+
+
+@pytest.mark.parametrize(
+    ("pose", "match"),
+    [
+        ((6.5, 6.5, 0.0), "overlaps obstacle 0"),
+        ((5.8, 6.5, 0.0), "overlaps obstacle 0"),
+        ((5.2, 2.0, 0.0), "overlaps wall 0"),
+        ((8.2, 2.2, 0.0), "post of landmark ID 10"),
+        ((0.1, 5.0, 0.0), "arena boundary"),
+        ((12.0, 5.0, 0.0), "arena boundary"),
+        ((math.nan, 5.0, 0.0), "finite"),
+    ],
+)
+def test_set_pose_into_collision_raises(pose, match) -> None:
+    w = world()
+    before = w.pose
+    with pytest.raises(ValueError, match=match):
+        w.set_pose(*pose)
+    assert w.pose == before
+
+
+def test_set_pose_teleports_at_rest() -> None:
+    w = world()
+    for _ in range(3):
+        w.step(1.0, 0.5)
+    w.set_pose(4.0, 8.0, 7.0)
+    assert w.pose == pytest.approx((4.0, 8.0, 7.0 - 2 * math.pi))
+    assert w.velocity == (0.0, 0.0)
+    w.step(0.0, 0.0)
+    assert w.pose == pytest.approx((4.0, 8.0, 7.0 - 2 * math.pi))
+    assert w.is_free(4.0, 8.0) and not w.is_free(6.5, 6.5)
+
+
+def test_constructor_checks() -> None:
+    with pytest.raises(ValueError, match=r"start pose .* overlaps obstacle 0"):
+        world(arena(start_pose=(6.5, 6.5, 0.0)))
+    with pytest.raises(TypeError, match="layout"):
+        World({"width": 10}, ROBOT, DT, SUBSTEPS)
+    with pytest.raises(ValueError, match="substeps"):
+        World(arena(), ROBOT, DT, 0)
+    with pytest.raises(ValueError, match="dt"):
+        World(arena(), ROBOT, -0.1, 4)
+
+
+# ----------------------------------------------------------------------------- determinism
+
+
+def drive(w: World, n: int, seed: int) -> list:
+    """A long run that keeps hitting things: mostly full speed ahead, random turns."""
+    rng = np.random.default_rng(seed)
+    out = []
+    for i in range(n):
+        v = 1.0 if i % 25 < 20 else float(rng.uniform(-1.0, 1.0))
+        om = float(rng.uniform(-1.5, 1.5)) if i % 25 >= 20 else 0.05
+        out.append((w.step(v, om), w.pose))
+    return out
+
+
+def test_two_fresh_worlds_are_bit_identical() -> None:
+    layout = random_layout(WorldConfig(), R, np.random.default_rng(0))
+    a = drive(World(layout, ROBOT, DT, SUBSTEPS), 300, seed=1)
+    b = drive(World(layout, ROBOT, DT, SUBSTEPS), 300, seed=1)
+    assert a == b
+    assert sum(c for c, _ in a) > 20  # the run did exercise contacts
+
+
+_SCRIPT = textwrap.dedent(
+    """
+    import numpy as np
+    from slam_env.config import RobotConfig, WorldConfig
+    from slam_env.layouts import preset_layout
+    from slam_env.world import World
+    w = World(preset_layout("cluttered", WorldConfig()), RobotConfig(), 0.2, 4)
+    rng = np.random.default_rng(3)
+    for i in range(200):
+        w.step(1.0 if i % 10 < 7 else -0.5, float(rng.uniform(-1.5, 1.5)))
+    print(repr(w.pose))
+    """
+)
+
+
+def test_bit_identical_across_processes() -> None:
+    outs = []
+    for hashseed in ("1", "2"):
+        env = dict(os.environ, PYTHONHASHSEED=hashseed)
+        res = subprocess.run(
+            [sys.executable, "-c", _SCRIPT], capture_output=True, text=True, env=env, check=True
+        )
+        outs.append(res.stdout.strip())
+    w = World(preset_layout("cluttered", WorldConfig()), RobotConfig(), 0.2, 4)
+    rng = np.random.default_rng(3)
+    for i in range(200):
+        w.step(1.0 if i % 10 < 7 else -0.5, float(rng.uniform(-1.5, 1.5)))
+    assert outs[0] == outs[1] == repr(w.pose)
+
+
+@pytest.mark.parametrize("name", ["open", "cluttered", "rooms"])
+def test_pickle_mid_run_continues_identically(name) -> None:
+    w = World(preset_layout(name, WorldConfig()), ROBOT, DT, SUBSTEPS)
+    checked_in_contact = 0
+    for k in range(8):
+        touched = drive(w, 30, seed=k)[-1][0]
+        clone = pickle.loads(pickle.dumps(w)) if k % 2 else copy.deepcopy(w)
+        assert clone.pose == w.pose
+        a = drive(w, 40, seed=100 + k)
+        b = drive(clone, 40, seed=100 + k)
+        assert a == b
+        checked_in_contact += touched
+    assert checked_in_contact >= 2  # some copies were taken while pressed into a wall
+
+
+def test_pickle_keeps_line_of_sight_and_collision_reporting() -> None:
+    w = world()
+    w.set_pose(9.0, 5.0, 0.0)
+    for _ in range(5):
+        w.step(1.0, 0.0)
+    clone = pickle.loads(pickle.dumps(w))
+    assert clone.step(1.0, 0.0) and w.step(1.0, 0.0)
+    assert not clone.line_of_sight((2.0, 2.5), clone.landmark_positions[0], 0)
+    assert clone.line_of_sight((7.5, 4.0), clone.landmark_positions[0], 0)

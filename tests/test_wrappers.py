@@ -1,0 +1,242 @@
+"""The EKF-SLAM wrapper and slam_env/ActiveSLAM-v0."""
+
+from __future__ import annotations
+
+import math
+import pickle
+import warnings
+
+import gymnasium as gym
+import numpy as np
+import pytest
+from gymnasium.utils.env_checker import check_env as gym_check_env
+from stable_baselines3.common.env_checker import check_env as sb3_check_env
+
+import slam_env
+from slam_env.belief import slot_indices
+from slam_env.ekf import EKFSLAM
+from slam_env.env import unpack_detections
+from slam_env.metrics import nees_band
+from slam_env.wrappers import DEFAULT_GATE, EKFSLAMWrapper
+from tests.streams import digest
+
+ENV_ID = "slam_env/ActiveSLAM-v0"
+
+
+@pytest.mark.parametrize("observation", ["egocentric", "full"])
+def test_env_checkers_pass_without_warnings(observation):
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        env = gym.make(ENV_ID, observation=observation)
+        gym_check_env(env.unwrapped)
+        sb3_check_env(env, warn=True)
+        env.close()
+
+
+@pytest.mark.parametrize(
+    ("observation", "options"),
+    [("egocentric", {}), ("full", {"n_landmarks": 8}), ("egocentric", {"correction": "batch"})],
+)
+def test_random_rollout_stays_inside_the_space(observation, options):
+    env = gym.make(ENV_ID, observation=observation, **options)
+    env.action_space.seed(1)
+    obs, info = env.reset(seed=1)
+    assert env.observation_space.contains(obs)
+    for _ in range(2000):
+        obs, reward, terminated, truncated, info = env.step(env.action_space.sample())
+        assert env.observation_space.contains(obs)
+        assert type(reward) is float and math.isfinite(reward)
+        assert math.isfinite(info["entropy"])
+        assert not info["belief_clipped"]
+        if terminated or truncated:
+            obs, info = env.reset()
+    assert info["landmarks_known"] > 0
+
+
+def _run_by_hand(seed: int, actions, **options):
+    """Run EKFSLAM on the raw env's observations, exactly as a user would."""
+    raw = gym.make("slam_env/Landmarks-v0", **options)
+    cfg = raw.unwrapped.config
+    f = EKFSLAM(
+        motion_model=cfg.odometry.model,
+        measurement_model=cfg.sensor.model,
+        alphas=cfg.odometry.alphas,
+        control_noise=cfg.odometry.velocity_noise,
+        measurement_cov=cfg.sensor.measurement_cov,
+        max_landmarks=raw.unwrapped.n_landmark_slots,
+        initial_pose=(0.0, 0.0, 0.0),
+        initial_pose_cov=np.zeros((3, 3)),
+        gate=DEFAULT_GATE,
+    )
+    obs, info = raw.reset(seed=seed)
+    f.reset(initial_pose=info["pose"], initial_pose_cov=np.zeros((3, 3)))
+
+    def correct(o):
+        z, ids = unpack_detections(o)
+        if ids.size:
+            f.update(z, ids)
+
+    correct(obs)
+    for a in actions:
+        obs, *_ = raw.step(a)
+        f.predict(obs["odometry"].astype(float))
+        correct(obs)
+    return f
+
+
+@pytest.mark.parametrize(
+    "options",
+    [{}, {"odometry": {"model": "velocity"}, "sensor": {"model": "cartesian"}}],
+)
+def test_wrapper_belief_equals_the_filter_run_by_hand(options):
+    rng = np.random.default_rng(0)
+    actions = [rng.uniform(-1, 1, 2).astype(np.float32) for _ in range(150)]
+    env = gym.make(ENV_ID, observation="full", **options)
+    obs, _ = env.reset(seed=4)
+    for a in actions:
+        obs, *_ = env.step(a)
+    by_hand = _run_by_hand(4, actions, **options)
+    wrapped = env.get_wrapper_attr("filter")
+    np.testing.assert_array_equal(wrapped.state_to_id, by_hand.state_to_id)
+    np.testing.assert_allclose(wrapped.mean, by_hand.mean, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(wrapped.cov, by_hand.cov, rtol=0, atol=1e-12)
+    # The full observation is that belief, slotted by landmark ID.
+    idx = slot_indices(by_hand.state_to_id)
+    np.testing.assert_allclose(obs["mean"][idx], by_hand.mean, rtol=1e-6, atol=1e-6)
+    np.testing.assert_allclose(obs["cov"][np.ix_(idx, idx)], by_hand.cov, rtol=1e-5, atol=1e-7)
+    known = np.zeros(obs["known"].shape)
+    known[by_hand.state_to_id] = 1
+    np.testing.assert_array_equal(obs["known"], known)
+
+
+def _smooth_actions(rng: np.random.Generator, n: int) -> list[np.ndarray]:
+    """Forward driving with a turn rate held for a few steps: an explorer-like path."""
+    actions, turn = [], 0.0
+    for i in range(n):
+        if i % 10 == 0:
+            turn = rng.uniform(-0.8, 0.8)
+        actions.append(np.array([0.8, turn], dtype=np.float32))
+    return actions
+
+
+def test_noise_matched_filter_is_consistent():
+    runs, steps = 30, 200
+    nees = np.zeros((runs, steps))
+    for run in range(runs):
+        env = gym.make(ENV_ID)
+        env.reset(seed=1000 + run)
+        for t, a in enumerate(_smooth_actions(np.random.default_rng(run), steps)):
+            *_, info = env.step(a)
+            nees[run, t] = info["pose_nees"]
+        env.close()
+    lo, hi = nees_band(dof=3, runs=runs)
+    average = nees.mean(axis=0)
+    inside = np.mean((average >= lo) & (average <= hi))
+    assert inside >= 0.9, f"average NEES inside [{lo:.2f}, {hi:.2f}] on {inside:.0%} of steps"
+
+
+def test_closing_a_loop_lowers_pose_uncertainty():
+    # Landmarks only near the start; the robot drives away (dead reckoning), turns
+    # around and comes back to re-observe them.
+    layout = {
+        "width": 30.0,
+        "height": 10.0,
+        "landmarks": [{"id": i, "x": 3.0 + i, "y": 5.0 + (-1) ** i} for i in range(3)],
+        "start": [1.0, 5.0, 0.0],
+    }
+    env = gym.make(ENV_ID, layout=layout, max_range=4.0, fov=math.pi / 2)
+    env.reset(seed=0)
+    plan = [(1.0, 0.0)] * 80 + [(0.0, 1.0)] * 11 + [(1.0, 0.0)] * 80
+    stds, seen_now = [], []
+    for a in plan:
+        _obs, _, _, _, info = env.step(np.array(a, dtype=np.float32))
+        stds.append(info["pose_std"])
+        seen_now.append(env.unwrapped.filter.n_landmarks)
+    stds = np.array(stds)
+    away = stds[60:91].max()  # far from every landmark, after the turn
+    assert away > 2 * stds[5]
+    assert stds[-1] < 0.5 * away
+
+
+def test_information_gain_pays_for_new_landmarks_and_entropy_is_finite():
+    env = gym.make(ENV_ID)
+    _, info = env.reset(seed=3)
+    known = info["landmarks_known"]
+    discoveries = 0
+    for a in _smooth_actions(np.random.default_rng(3), 400):
+        _, reward, _, _, info = env.step(a)
+        assert math.isfinite(info["entropy"])
+        assert reward == pytest.approx(sum(info["reward_terms"].values()))
+        if info["landmarks_known"] > known:
+            discoveries += 1
+            assert info["reward_terms"]["information_gain"] > 0
+        known = info["landmarks_known"]
+    assert discoveries >= 3
+
+
+@pytest.mark.parametrize("mode", ["sync", "async"])
+def test_make_vec(mode):
+    envs = gym.make_vec(ENV_ID, num_envs=2, vectorization_mode=mode)
+    obs, _ = envs.reset(seed=[1, 2])
+    for _ in range(20):
+        obs, *_ = envs.step(envs.action_space.sample())
+        assert envs.observation_space.contains(obs)
+    envs.close()
+
+
+def test_subproc_vec_env_and_ppo_smoke(tmp_path):
+    from stable_baselines3 import PPO
+    from stable_baselines3.common.env_util import make_vec_env
+    from stable_baselines3.common.vec_env import SubprocVecEnv
+
+    # Worker processes start fresh: the "module:" prefix imports slam_env there.
+    venv = make_vec_env(f"slam_env:{ENV_ID}", n_envs=2, seed=0, vec_env_cls=SubprocVecEnv)
+    model = PPO("MlpPolicy", venv, n_steps=64, batch_size=64, n_epochs=1, seed=0, device="cpu")
+    model.learn(total_timesteps=256)
+    assert model.num_timesteps >= 256
+    venv.close()
+
+
+def test_pickle_mid_episode_continues_identically():
+    env = gym.make(ENV_ID)
+    env.action_space.seed(9)
+    env.reset(seed=9)
+    for _ in range(50):
+        env.step(env.action_space.sample())
+    twin = pickle.loads(pickle.dumps(env))
+    actions = [env.action_space.sample() for _ in range(100)]
+    assert digest([env.step(a) for a in actions]) == digest([twin.step(a) for a in actions])
+
+
+def test_render_draws_the_belief():
+    env = gym.make(ENV_ID, render_mode="rgb_array")
+    env.reset(seed=0)
+    for _ in range(20):
+        env.step(np.array([0.5, 0.2], dtype=np.float32))
+    with_belief = env.render()
+    base = env.unwrapped.raw_env
+    base.belief_overlay = None
+    without = base.render()
+    assert with_belief.shape == without.shape
+    assert np.any(with_belief != without)
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "match"),
+    [
+        ({"observation": "pixels"}, "observation"),
+        ({"correction": "smoothing"}, "correction"),
+        ({"reward_weights": {"information_gain": -1.0}}, "information_gain"),
+        ({"reward_weights": {"curiosity": 1.0}}, "curiosity"),
+    ],
+)
+def test_bad_wrapper_options_raise(kwargs, match):
+    with pytest.raises((ValueError, TypeError), match=match):
+        gym.make(ENV_ID, **kwargs)
+
+
+def test_wrapper_usable_directly_on_the_raw_env():
+    env = EKFSLAMWrapper(slam_env.env.LandmarksEnv(n_landmarks=5), observation="full")
+    obs, info = env.reset(seed=0)
+    assert env.observation_space.contains(obs)
+    assert info["landmarks_known"] == int(obs["known"].sum())
