@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numpy as np
@@ -40,6 +41,16 @@ def parse_action(action: Any, action_space: spaces.Space) -> tuple[float, float]
             )
         return DISCRETE_PRIMITIVES[index]
 
+    if (
+        type(action) is np.ndarray
+        and action.shape == (2,)
+        and action.dtype in (np.float32, np.float64)
+    ):
+        # Fast path for what agents pass: two Python floats, no temporaries.
+        speed, turn = action.tolist()
+        if not (math.isfinite(speed) and math.isfinite(turn)):
+            raise ValueError(f"action must be finite, got {[speed, turn]}")
+        return min(1.0, max(-1.0, speed)), min(1.0, max(-1.0, turn))
     try:
         arr = np.asarray(action, dtype=np.float64)
     except (TypeError, ValueError) as exc:

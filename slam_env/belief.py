@@ -50,12 +50,21 @@ def slot_indices(state_to_id: np.ndarray) -> np.ndarray:
     return np.concatenate([np.arange(3), lm])
 
 
-class FullEncoding:
-    """``Dict(mean: (3+2M,), cov: (3+2M, 3+2M), known: (M,))``, float32.
+def unpack_full_belief(obs: dict[str, np.ndarray]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A ``"full"`` belief observation as (mean (D,), cov (D, D), known (M,) bool)."""
+    mean = obs["mean"].astype(np.float64)
+    dim = mean.shape[-1]
+    return mean, obs["cov"].astype(np.float64).reshape(dim, dim), obs["known"] > 0.5
 
-    ``mean``/``cov`` hold the pose in entries 0..2 and landmark i in 3+2i, 4+2i;
-    unknown slots are zero with ``known[i] = 0``. Positions are bounded by ±10 arena
-    sizes and (co)variances by that squared; the heading lies in [−π, π].
+
+class FullEncoding:
+    """``Dict(mean: (D,), cov: (D·D,), known: (M,))``, float32, with D = 3 + 2M.
+
+    ``mean`` and the D×D covariance (flattened row-major, so that every key is a
+    vector as stable-baselines3 expects; :func:`unpack_full_belief` reshapes it)
+    hold the pose in entries 0..2 and landmark i in 3+2i, 4+2i; unknown slots are
+    zero with ``known[i] = 0``. Positions are bounded by ±10 arena sizes and
+    (co)variances by that squared; the heading lies in [−π, π].
     """
 
     def __init__(self, geometry: BeliefGeometry) -> None:
@@ -71,7 +80,7 @@ class FullEncoding:
         self.space = spaces.Dict(
             {
                 "mean": spaces.Box(-high_mean, high_mean, dtype=np.float32),
-                "cov": spaces.Box(-cov_bound, cov_bound, (dim, dim), np.float32),
+                "cov": spaces.Box(-cov_bound, cov_bound, (dim * dim,), np.float32),
                 "known": spaces.Box(0.0, 1.0, (m,), np.float32),
             }
         )
@@ -96,7 +105,7 @@ class FullEncoding:
         )
         obs = {
             "mean": clipped_mean.astype(np.float32),
-            "cov": clipped_cov.astype(np.float32),
+            "cov": clipped_cov.astype(np.float32).ravel(),
             "known": known,
         }
         return obs, clipped

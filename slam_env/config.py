@@ -110,7 +110,7 @@ class RobotConfig:
 class SensorConfig:
     """The landmark sensor (seed 000 range-bearing, or seed 004 cartesian)."""
 
-    model: str = "range_bearing"  # or "cartesian": z = R(θ)ᵀ(m − t)
+    measurement_model: str = "range_bearing"  # or "cartesian": z = R(θ)ᵀ(m − t)
     max_range: float = 5.0  # m
     fov: float = 2.0 * math.pi / 3.0  # rad, full opening angle centred on the heading
     range_std: float = 0.05  # m, σr
@@ -120,7 +120,9 @@ class SensorConfig:
     max_detections: int | None = None  # rows of the padded array; None: one per landmark
 
     def __post_init__(self) -> None:
-        _check_choice("SensorConfig", "model", self.model, MEASUREMENT_MODELS)
+        _check_choice(
+            "SensorConfig", "measurement_model", self.measurement_model, MEASUREMENT_MODELS
+        )
         _check_positive("SensorConfig", max_range=self.max_range, fov=self.fov)
         if self.fov > 2.0 * math.pi:
             raise ValueError(f"SensorConfig.fov must be <= 2π rad, got {self.fov}")
@@ -143,24 +145,24 @@ class SensorConfig:
         """Q, the 2×2 measurement noise covariance the filter should use."""
         import numpy as np
 
-        if self.model == "range_bearing":
+        if self.measurement_model == "range_bearing":
             return np.diag([self.range_std**2, self.bearing_std**2])
         return np.diag([self.cartesian_std**2, self.cartesian_std**2])
 
 
 @dataclass(frozen=True)
 class OdometryConfig:
-    """Odometry noise. ``"odometry"``: u = (δrot1, δtr, δrot2) with the α1–α4
+    """Odometry and its noise. ``motion_model="odometry"``: u = (δrot1, δtr, δrot2) with the α1–α4
     action-space noise of seed 000. ``"velocity"``: u = (Δp, Δθ) with the diagonal
     control noise Σu = diag(σp² + βp·Δp², σθ² + βθ·Δθ²) of seed 004."""
 
-    model: str = "odometry"
+    motion_model: str = "odometry"
     alphas: tuple[float, float, float, float] = (0.05, 0.005, 0.02, 0.005)  # α1..α4, unitless
     velocity_noise: tuple[float, float, float, float] = (0.0, 0.0, 0.01, 0.02)
     # (σp [m], σθ [rad], βp [unitless], βθ [unitless])
 
     def __post_init__(self) -> None:
-        _check_choice("OdometryConfig", "model", self.model, MOTION_MODELS)
+        _check_choice("OdometryConfig", "motion_model", self.motion_model, MOTION_MODELS)
         if len(self.alphas) != 4:
             raise ValueError(f"OdometryConfig.alphas must have 4 entries, got {len(self.alphas)}")
         for i, a in enumerate(self.alphas, start=1):

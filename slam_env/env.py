@@ -58,8 +58,8 @@ class LandmarksEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
     | ``odometry``   | (3,)   | (δrot1 rad, δtr m, δrot2 rad) for the step, seed 000 model;   |
     |                | (2,)   | or (Δp m, Δθ rad) with ``motion_model="velocity"``            |
     | ``detections`` | (2D,)  | row-major pairs: [r m, φ rad] per detection (φ ∈ [−π, π));    |
-    |                |        | [x, y] m in the robot frame with ``model="cartesian"``;       |
-    |                |        | zero pairs are padding                                        |
+    |                |        | [x, y] m in the robot frame with                              |
+    |                |        | ``measurement_model="cartesian"``; zero pairs are padding     |
     | ``ids``        | (D,)   | the landmark ID of each pair; −1 for padding                  |
     | ``mask``       | (D,)   | 1.0 for a real detection, 0.0 for padding                     |
 
@@ -148,7 +148,7 @@ class LandmarksEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         cfg = self.config
         step_motion = cfg.robot.max_speed * cfg.dt
         trans_bound = _ODOMETRY_TRANSLATION_HEADROOM * step_motion + 1.0
-        if cfg.odometry.model == "odometry":
+        if cfg.odometry.motion_model == "odometry":
             odo_high = np.array([math.pi, trans_bound, math.pi], dtype=np.float32)
         else:
             odo_high = np.array([trans_bound, math.pi], dtype=np.float32)
@@ -158,7 +158,7 @@ class LandmarksEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
             cfg.sensor.range_std, cfg.sensor.cartesian_std
         )
         d = self.max_detections
-        if cfg.sensor.model == "range_bearing":
+        if cfg.sensor.measurement_model == "range_bearing":
             det_low = np.tile(np.array([0.0, -math.pi], dtype=np.float32), (d, 1))
             det_high = np.tile(np.array([reach, math.pi], dtype=np.float32), (d, 1))
         else:
@@ -229,7 +229,7 @@ class LandmarksEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
 
         # Observe: odometry of the motion just made, then the landmark sensor.
         true_control = self.odometry.true_control(pose0, pose1)
-        control = self.odometry.measure(pose0, pose1, self.np_random)
+        control = self.odometry.perturb(true_control, self.np_random)
         detections = self._sense(pose1)
         n_new = self._mark_seen(detections)
 
@@ -304,12 +304,19 @@ class LandmarksEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         ids = np.full(d, -1.0, dtype=np.float32)
         mask = np.zeros(d, dtype=np.float32)
         if k:
-            det[:k] = detections.z
-            np.clip(det[:k], self._det_low[:k], self._det_high[:k], out=det[:k])
+            rows = det[:k]
+            rows[:] = detections.z
+            np.maximum(rows, self._det_low[:k], out=rows)
+            np.minimum(rows, self._det_high[:k], out=rows)
             ids[:k] = detections.ids
             mask[:k] = 1.0
-        odometry = np.clip(control, self._odometry_low, self._odometry_high).astype(np.float32)
-        return {"odometry": odometry, "detections": det.ravel(), "ids": ids, "mask": mask}
+        odometry = np.minimum(np.maximum(control, self._odometry_low), self._odometry_high)
+        return {
+            "odometry": odometry.astype(np.float32),
+            "detections": det.ravel(),
+            "ids": ids,
+            "mask": mask,
+        }
 
     def _get_info(
         self, pose: tuple[float, float, float], true_control: np.ndarray, terms: dict[str, float]
@@ -332,7 +339,7 @@ class LandmarksEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         pose = self.world.pose
         det = self._last_detections
         if det is not None and len(det.ids):
-            if self.config.sensor.model == "range_bearing":
+            if self.config.sensor.measurement_model == "range_bearing":
                 r, phi = det.z[:, 0], det.z[:, 1]
                 local = np.stack([r * np.cos(phi), r * np.sin(phi)], axis=-1)
             else:

@@ -9,11 +9,15 @@ import numpy as np
 TWO_PI = 2.0 * math.pi
 
 
+# The largest float below π: (a + π) % 2π − π rounds to +π for some a just below −π.
+_BELOW_PI = math.nextafter(math.pi, 0.0)
+
+
 def wrap_angle(angle):
-    """Wrap an angle (scalar or array, rad) to [−π, π)."""
+    """Wrap an angle (scalar or array, rad) to [−π, π), half-open even at round-off."""
     if isinstance(angle, np.ndarray):
-        return (angle + math.pi) % TWO_PI - math.pi
-    return (float(angle) + math.pi) % TWO_PI - math.pi
+        return np.minimum((angle + math.pi) % TWO_PI - math.pi, _BELOW_PI)
+    return min((float(angle) + math.pi) % TWO_PI - math.pi, _BELOW_PI)
 
 
 def rotation(theta: float) -> np.ndarray:
@@ -40,20 +44,30 @@ def robot_to_world(pose, points: np.ndarray) -> np.ndarray:
     return np.stack([c * px - s * py + x, s * px + c * py + y], axis=-1)
 
 
-def odometry_from_poses(pose0, pose1, min_translation: float = 1e-9) -> tuple[float, float, float]:
+# Below this translation (m) the direction of motion is noise: a contact nudging a
+# robot that turns in place would otherwise give any δrot1 up to ±π/2 and, through
+# α1·δrot1², a heading noise of tenths of a radian for a sub-millimetre push.
+MIN_ODOMETRY_TRANSLATION = 1e-3
+
+
+def odometry_from_poses(
+    pose0, pose1, min_translation: float = MIN_ODOMETRY_TRANSLATION
+) -> tuple[float, float, float]:
     """Decompose the motion pose0 → pose1 into (δrot1, δtr, δrot2) (seed 000).
 
     A motion that goes backwards relative to the heading is given a negative δtr,
     so that δrot1 stays small instead of jumping to ±π: the odometry model's noise
     grows with δrot1², and reversing is not a half-turn. Below ``min_translation``
-    δrot1 is undefined and set to 0, the whole rotation going into δrot2.
+    δrot1 is set to 0, δtr is the displacement along the heading and the whole
+    rotation goes into δrot2 (the sideways part, under a millimetre, is dropped).
     """
     x0, y0, th0 = pose0
     x1, y1, th1 = pose1
     dx, dy = x1 - x0, y1 - y0
     trans = math.hypot(dx, dy)
     if trans < min_translation:
-        return 0.0, 0.0, wrap_angle(th1 - th0)
+        along = dx * math.cos(th0) + dy * math.sin(th0)
+        return 0.0, along, wrap_angle(th1 - th0)
     rot1 = wrap_angle(math.atan2(dy, dx) - th0)
     if abs(rot1) > math.pi / 2.0:
         rot1 = wrap_angle(rot1 - math.pi)

@@ -45,20 +45,6 @@ for _a in (_EMPTY_Z, _EMPTY_I):
     _a.flags.writeable = False
 
 
-def _wrap_array(angle: np.ndarray) -> np.ndarray:
-    """``wrap_angle`` guaranteed half-open: an input just below −π can round to +π in
-    ``(a + π) % 2π − π``; clamp that to the largest double below π (1 ulp from −π)
-    so every angle lies in [−π, π)."""
-    return np.minimum(wrap_angle(angle), _BELOW_PI)
-
-
-def _wrap_scalar(angle: float) -> float:
-    return min(wrap_angle(angle), _BELOW_PI)
-
-
-_BELOW_PI = math.nextafter(math.pi, 0.0)
-
-
 @dataclass(frozen=True, slots=True)
 class Detections:
     """One scan of the landmark sensor: k detections, sorted by landmark ID.
@@ -119,7 +105,7 @@ class LandmarkSensor:
         if not isinstance(config, SensorConfig):
             raise TypeError(f"config must be a SensorConfig, got {type(config).__name__}")
         self.config = config
-        self.model = config.model
+        self.model = config.measurement_model
         self.max_range = float(config.max_range)
         self.fov = float(config.fov)
         self.detection_prob = float(config.detection_prob)
@@ -227,7 +213,7 @@ class LandmarkSensor:
                 noise *= self._std
                 z += noise
             # wrap: +π (landmark straight behind) becomes −π; noise may leave [−π, π)
-            z[:, 1] = _wrap_array(z[:, 1])
+            z[:, 1] = wrap_angle(z[:, 1])
         else:
             z = d.take(idx, axis=0)
             if self._noisy:
@@ -255,14 +241,19 @@ class OdometrySensor:
     Reading: ``u_noisy = u_true + sqrt(diag(C(u_true))) · ε``, ε ~ N(0, I_dim) from
     one ``rng.standard_normal(dim)`` call (always made, even when C = 0), with C = M
     or Σu (diagonal), evaluated at the *true* control; the rotation entries are
-    wrapped to [−π, π).
+    wrapped to [−π, π). :meth:`perturb` applies the noise to a control already
+    computed with :meth:`true_control` (``measure = perturb ∘ true_control``).
+
+    Caveat of the α-model: δrot1 is the direction of travel, so a translation just
+    above ``odometry_from_poses``'s 1 mm threshold (e.g. a push during an in-place
+    turn) can give |δrot1| up to π/2 and a large α1·δrot1² noise; below it δrot1 = 0.
     """
 
     def __init__(self, config: OdometryConfig) -> None:
         if not isinstance(config, OdometryConfig):
             raise TypeError(f"config must be an OdometryConfig, got {type(config).__name__}")
         self.config = config
-        self.model = config.model
+        self.model = config.motion_model
         self.alphas = tuple(float(a) for a in config.alphas)  # α1..α4, unitless
         self.velocity_noise = tuple(float(v) for v in config.velocity_noise)  # σp, σθ, βp, βθ
         self._odometry = self.model == "odometry"
@@ -291,7 +282,7 @@ class OdometrySensor:
         std = np.sqrt(np.diagonal(self.noise_cov(u)))
         out = u + std * rng.standard_normal(self.dim)
         for i in self.angle_indices:
-            out[i] = _wrap_scalar(out[i])
+            out[i] = wrap_angle(out[i])
         return out
 
     def measure(self, pose0, pose1, rng: np.random.Generator) -> np.ndarray:

@@ -1,27 +1,21 @@
 """The pymunk world: boundary and inner walls, convex obstacles, landmark posts and a
 circular unicycle robot.
 
-The robot is a dynamic body with an infinite moment of inertia: contacts never spin
-it, its heading is whatever the controller integrates. Each env step drives it as a
-unicycle for ``dt`` seconds over ``substeps`` fixed pymunk steps:
+The robot is driven kinematically as a unicycle for ``dt`` seconds over ``substeps``
+sub-steps (each: move v·h along the chord of the arc, i.e. at the sub-step's mean
+heading, and turn by ω·h). Before each move
+a pymunk point query checks that the robot's disc is clear at the destination; when
+it is not, the move is bisected down to the contact, so a collision *stops* the
+translation while the rotation goes on: the robot behaves like a bumper-equipped
+differential drive. It never slides sideways, because a wheeled robot cannot, and
+because sideways motion is exactly what the seed's odometry model cannot describe (a
+lateral slip reads as δrot1 ≈ ±π/2, and the α1·δrot1² noise of such a reading would
+wreck any filter's heading). Moves are at most half the robot's radius, so no speed
+tunnels through anything. One query first checks whether anything is within reach of
+the whole step; in free space that is the only query.
 
-1. its velocity is set to v·(cos θ, sin θ) (minus the part pushing into a contact
-   left over from the previous step) and its angular velocity to ω;
-2. before each pymunk step a force is set such that pymunk's velocity integration
-   lands on v·(cos θ', sin θ'), θ' being the heading after that step's rotation. The
-   contact solver then removes what pushes into a wall or an obstacle, so the next
-   position update follows the solved velocity: the robot stops or slides, and in
-   free space it follows the discretised unicycle exactly.
-
-Chipmunk integrates positions *before* solving contacts, which is why the velocity is
-shaped through the force (velocity integration happens before the solver) instead of
-being overwritten before each step (which would push the robot into walls by v·h per
-step). Substeps are split further when |v|·h would exceed half the robot radius, so
-the robot never tunnels through a wall, an obstacle or a post.
-
-The last pymunk step of an env step runs without positional error correction, so no
-hidden solver state (chipmunk's bias velocity, which pymunk cannot pickle) survives an
-env step: pickling a :class:`World` between steps resumes bit-identically.
+The static geometry lives in pymunk; the robot's pose is three Python floats mirrored
+into its body, so a pickled world resumes bit-identically.
 """
 
 from __future__ import annotations
@@ -31,22 +25,15 @@ from typing import Any
 
 import numpy as np
 import pymunk
-from pymunk._chipmunk_cffi import ffi as _ffi
-from pymunk._chipmunk_cffi import lib as _cp  # direct calls in the per-step hot path
 
 from slam_env.config import RobotConfig
 from slam_env.layouts import LANDMARK_POST_RADIUS, Layout
 
 __all__ = ["LANDMARK_POST_RADIUS", "World"]
 
-CONTACT_SLOP = 0.005  # m, overlap tolerated before positional correction pushes back
-CORRECTION_PER_STEP = 0.5  # fraction of the overlap (beyond slop) removed per pymunk step
-MAX_TRAVEL_FRACTION = 0.5  # most robot travel per pymunk step, in robot radii
-SOLVER_ITERATIONS = 10  # pymunk contact solver iterations per step
-HASH_CELL = 1.0  # m, spatial hash cell size (about the robot's size)
-MIN_HASH_COUNT = 64  # spatial hash table size: max(this, 2 × shapes); cleared every step
+MAX_MOVE_FRACTION = 0.5  # longest single move, in robot radii (no tunnelling)
+CONTACT_BISECTIONS = 12  # a blocked move stops within 2⁻¹² of its length of the contact
 
-ROBOT_COLLISION_TYPE = 1
 CAT_ROBOT = 0b0001  # shape filter categories
 CAT_WALL = 0b0010
 CAT_OBSTACLE = 0b0100
@@ -54,17 +41,8 @@ CAT_POST = 0b1000
 _ALL = 0xFFFFFFFF
 _PI = math.pi
 _TWO_PI = 2.0 * math.pi
-_NULL = _ffi.NULL
-
-
-def _mark_contact(arbiter: pymunk.Arbiter, space: pymunk.Space, flag: list[bool]) -> None:
-    """pre_solve callback for the robot's contacts: record that it touched something."""
-    flag[0] = True
-
-
-def _collect_normal(arbiter: pymunk.Arbiter, normals: list[tuple[float, float]]) -> None:
-    n = arbiter.normal  # points from the robot (shape a of its own arbiters) outwards
-    normals.append((n.x, n.y))
+# Queries for the robot's motion see everything but the robot itself.
+_MOTION_FILTER = pymunk.ShapeFilter(mask=_ALL & ~CAT_ROBOT)
 
 
 class World:
@@ -80,7 +58,7 @@ class World:
 
     Shapes: walls are static segments, obstacles static convex polygons, each landmark
     a static circle of radius :data:`LANDMARK_POST_RADIUS` (it blocks the robot and
-    other landmarks' lines of sight), the robot a frictionless dynamic circle.
+    other landmarks' lines of sight), the robot a kinematic circle.
     """
 
     def __init__(
@@ -111,9 +89,7 @@ class World:
         self.dt = float(dt)
         self.substeps = int(substeps)
         self.wall_thickness = float(wall_thickness)
-        self._h = self.dt / self.substeps  # s, pymunk step
-        self._max_travel = MAX_TRAVEL_FRACTION * robot.radius  # m per pymunk step
-        self._fast_speed = self._max_travel / self._h  # m/s above which steps are split
+        self._h = self.dt / self.substeps  # s, one sub-step
 
         positions = layout.landmark_array()
         positions.flags.writeable = False
@@ -136,10 +112,6 @@ class World:
     def _build_space(self) -> None:
         layout, t = self.layout, self.wall_thickness
         space = pymunk.Space()
-        space.gravity = (0.0, 0.0)
-        space.damping = 1.0
-        space.iterations = SOLVER_ITERATIONS
-        space.collision_slop = CONTACT_SLOP
         static = space.static_body
         shapes: list[pymunk.Shape] = []
 
@@ -162,68 +134,27 @@ class World:
             s = pymunk.Circle(static, LANDMARK_POST_RADIUS, (x, y))
             s.filter = pymunk.ShapeFilter(group=i + 1, categories=CAT_POST)
             shapes.append(s)
-        for s in shapes:
-            s.friction = 0.0
-            s.elasticity = 0.0
 
-        body = pymunk.Body(self.robot.mass, math.inf)
+        body = pymunk.Body(body_type=pymunk.Body.KINEMATIC)
         shape = pymunk.Circle(body, self.robot.radius)
-        shape.friction = 0.0
-        shape.elasticity = 0.0
-        shape.collision_type = ROBOT_COLLISION_TYPE
         shape.filter = pymunk.ShapeFilter(categories=CAT_ROBOT)
         space.add(*shapes, body, shape)
-        self._hash_count = max(MIN_HASH_COUNT, 2 * len(shapes))
-        space.use_spatial_hash(HASH_CELL, self._hash_count)
-
         self._space = space
         self._body = body
         self._robot_shape = shape
-        # Unit normals (from the robot outwards) of its contacts after the last step:
-        # the first pymunk step of the next command must not push into them, since
-        # chipmunk moves bodies before it solves contacts. Kept here (not read back
-        # from pymunk) so that a pickled world resumes identically.
-        self._contact_normals: tuple[tuple[float, float], ...] = ()
-        self._connect()
-
-    def _connect(self) -> None:
-        """(Re)attach the contact callback and cache the raw chipmunk handles."""
-        self._contact_flag = [False]
-        self._space.on_collision(
-            ROBOT_COLLISION_TYPE, None, pre_solve=_mark_contact, data=self._contact_flag
-        )
-        self._cp_space = self._space._space
-        self._cp_body = self._body._body
-        self._set_bias(self._h)
-
-    def _set_bias(self, h: float) -> None:
-        # Chipmunk removes a fraction 1 − bias^h of the overlap per step of length h.
-        self._bias = (1.0 - CORRECTION_PER_STEP) ** (1.0 / h)
-        self._space.collision_bias = self._bias
 
     def _place(self, x: float, y: float, theta: float) -> None:
-        body = self._body
-        body.position = (x, y)
-        body.angle = (theta + _PI) % _TWO_PI - _PI
-        body.velocity = (0.0, 0.0)
-        body.angular_velocity = 0.0
-        body.force = (0.0, 0.0)
-        self._space.reindex_shapes_for_body(body)
-        self._contact_normals = ()
+        self._x, self._y = x, y
+        self._theta = (theta + _PI) % _TWO_PI - _PI
+        self._body.position = (x, y)
+        self._body.angle = self._theta
 
     # ----------------------------------------------------------------- state
 
     @property
     def pose(self) -> tuple[float, float, float]:
         """(x, y, θ) of the robot: m, m, rad with θ in [−π, π); Python floats."""
-        p = _cp.cpBodyGetPosition(self._cp_body)
-        return (p.x, p.y, _cp.cpBodyGetAngle(self._cp_body))
-
-    @property
-    def velocity(self) -> tuple[float, float]:
-        """The robot's (vx, vy), m/s, after the last contact solve."""
-        v = _cp.cpBodyGetVelocity(self._cp_body)
-        return (v.x, v.y)
+        return (self._x, self._y, self._theta)
 
     @property
     def landmark_positions(self) -> np.ndarray:
@@ -267,54 +198,45 @@ class World:
 
     def step(self, v: float, omega: float) -> bool:
         """Drive as a unicycle at speed ``v`` (m/s) and turn rate ``omega`` (rad/s) for
-        ``dt``; return True if the robot touched anything (wall, obstacle, post)."""
+        ``dt``; return True if an obstacle, a wall or a post blocked the motion."""
         v = float(v)
         omega = float(omega)
         if not (math.isfinite(v) and math.isfinite(omega)):
             raise ValueError(f"step needs finite v and omega, got ({v}, {omega})")
-        bb, sp = self._cp_body, self._cp_space
-        n, h = self.substeps, self._h
-        if abs(v) > self._fast_speed:  # split further: never tunnel
-            n = math.ceil(abs(v) * self.dt / self._max_travel)
-            h = self.dt / n
-            self._set_bias(h)
+        x, y, a = self._x, self._y, self._theta
+        radius = self.robot.radius
+        # Moves no longer than half the robot's radius cannot jump over anything: the
+        # thinnest obstacle (a post or a wall) plus the robot is wider than that.
+        n = max(self.substeps, math.ceil(abs(v) * self.dt / (MAX_MOVE_FRACTION * radius)))
+        h = self.dt / n
+        dth, travel = omega * h, v * h
+        query = self._space.point_query_nearest
+        # Nothing within reach of the whole step: no need to check each move.
+        free = v == 0.0 or query((x, y), radius + abs(v) * self.dt, _MOTION_FILTER) is None
+        blocked = False
         cos, sin = math.cos, math.sin
-        a = _cp.cpBodyGetAngle(bb)
-        vx, vy = v * cos(a), v * sin(a)
-        for nx, ny in self._contact_normals:
-            # Don't push into what the robot already touches (see _contact_normals).
-            into = vx * nx + vy * ny
-            if into > 0.0:
-                vx -= into * nx
-                vy -= into * ny
-        flag = self._contact_flag
-        flag[0] = False
-        _cp.cpBodySetAngularVelocity(bb, omega)
-        _cp.cpBodySetVelocity(bb, (vx, vy))
-        k = self.robot.mass / h
-        dth = omega * h
-        last = n - 1
-        for i in range(n):
-            a += dth  # the heading after this step's rotation (chipmunk: a + ω·h)
-            cur = _cp.cpBodyGetVelocity(bb)
-            _cp.cpBodySetForce(bb, ((v * cos(a) - cur.x) * k, (v * sin(a) - cur.y) * k))
-            if i == last:
-                _cp.cpSpaceSetCollisionBias(sp, 1.0)  # no positional correction: see doc
-            _cp.cpSpaceStep(sp, h)
-        _cp.cpSpaceSetCollisionBias(sp, self._bias)
-        if h != self._h:
-            self._set_bias(self._h)
-        a = _cp.cpBodyGetAngle(bb)
-        if not -_PI <= a < _PI:
-            _cp.cpBodySetAngle(bb, (a + _PI) % _TWO_PI - _PI)
-        touched = flag[0]
-        if touched:
-            normals: list[tuple[float, float]] = []
-            self._body.each_arbiter(_collect_normal, normals)
-            self._contact_normals = tuple(normals)
-        elif self._contact_normals:
-            self._contact_normals = ()
-        return touched
+        for _ in range(n):
+            # Midpoint rule: each move follows the chord of the arc, at the mean heading.
+            mid_heading = a + 0.5 * dth
+            a += dth
+            if travel == 0.0:
+                continue
+            dx, dy = travel * cos(mid_heading), travel * sin(mid_heading)
+            if not free and query((x + dx, y + dy), radius, _MOTION_FILTER) is not None:
+                blocked = True
+                # Bisect for the longest part of the move that keeps the robot clear.
+                lo, hi = 0.0, 1.0
+                for _ in range(CONTACT_BISECTIONS):
+                    mid = 0.5 * (lo + hi)
+                    if query((x + mid * dx, y + mid * dy), radius, _MOTION_FILTER) is None:
+                        lo = mid
+                    else:
+                        hi = mid
+                dx, dy = lo * dx, lo * dy
+            x += dx
+            y += dy
+        self._place(x, y, a)
+        return blocked
 
     # ----------------------------------------------------------------- line of sight
 
@@ -322,29 +244,15 @@ class World:
         """True when the segment origin → target (each (2,), m) is not blocked by a wall,
         an obstacle or another landmark's post; the robot and the post of landmark
         ``landmark_index`` (its row in :attr:`landmark_positions`) are ignored."""
-        hit = _cp.cpSpaceSegmentQueryFirst(
-            self._cp_space,
+        hit = self._space.segment_query_first(
             (float(origin[0]), float(origin[1])),
             (float(target[0]), float(target[1])),
             0.0,
             self._los_filters[landmark_index],
-            _NULL,
         )
-        return hit == _NULL
+        return hit is None
 
     # ----------------------------------------------------------------- pickling
-
-    def __getstate__(self) -> dict[str, Any]:
-        state = self.__dict__.copy()
-        for key in ("_cp_space", "_cp_body", "_contact_flag"):
-            state.pop(key)
-        return state
-
-    def __setstate__(self, state: dict[str, Any]) -> None:
-        self.__dict__.update(state)
-        # The index is not pickled: rebuild it exactly as __init__ did (see _build_space).
-        self._space.use_spatial_hash(HASH_CELL, self._hash_count)
-        self._connect()
 
     def __repr__(self) -> str:
         x, y, th = self.pose

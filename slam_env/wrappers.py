@@ -84,8 +84,8 @@ class EKFSLAMWrapper(gym.ObservationWrapper):
             np.zeros((3, 3)) if initial_pose_cov is None else np.asarray(initial_pose_cov, float)
         )
         self.filter = EKFSLAM(
-            motion_model=cfg.odometry.model,
-            measurement_model=cfg.sensor.model,
+            motion_model=cfg.odometry.motion_model,
+            measurement_model=cfg.sensor.measurement_model,
             alphas=cfg.odometry.alphas if alphas is None else alphas,
             control_noise=cfg.odometry.velocity_noise if control_noise is None else control_noise,
             measurement_cov=(

@@ -20,7 +20,7 @@ ENV_ID = "slam_env/Landmarks-v0"
 
 NON_DEFAULT_CONFIGS = [
     {"n_landmarks": 5, "n_obstacles": 0, "max_range": 3.0},
-    {"odometry": {"model": "velocity"}, "sensor": {"model": "cartesian"}},
+    {"motion_model": "velocity", "measurement_model": "cartesian"},
     {"preset": "rooms", "action_type": "discrete"},
     {"preset": "open", "max_detections": 3, "detection_prob": 0.7, "fov": 6.283185307179586},
 ]

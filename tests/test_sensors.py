@@ -26,8 +26,6 @@ from slam_env.sensors import (
     Detections,
     LandmarkSensor,
     OdometrySensor,
-    _wrap_array,
-    _wrap_scalar,
 )
 
 N_SE = 5.0  # standard errors allowed in every statistical check
@@ -303,17 +301,6 @@ def test_bearing_directly_behind_and_across_pi():
     assert det.z[0, 1] == -PI
 
 
-def test_wrap_is_half_open_at_the_float_edge():
-    # (a + π) % 2π − π rounds some inputs just below −π up to +π; the sensors must not
-    below = np.nextafter(-PI, -4.0) - np.arange(8) * 1e-16
-    wrapped = _wrap_array(below.copy())
-    assert np.all(wrapped >= -PI) and np.all(wrapped < PI)
-    assert np.all(np.abs(ref_wrap(wrapped - below)) < 1e-15)
-    for a in below.tolist():
-        w = _wrap_scalar(a)
-        assert -PI <= w < PI and abs(float(ref_wrap(w - a))) < 1e-15
-
-
 def test_noisy_bearing_behind_stays_in_range_and_straddles_the_seam():
     sigma = 0.1
     sensor = LandmarkSensor(all_seeing(bearing_std=sigma, range_std=0.01))
@@ -336,7 +323,7 @@ def test_noisy_bearing_behind_stays_in_range_and_straddles_the_seam():
 
 @pytest.mark.parametrize("model", ["range_bearing", "cartesian"])
 def test_noise_free_measurements_are_exact(model):
-    sensor = LandmarkSensor(all_seeing(model=model, cartesian_std=0.0))
+    sensor = LandmarkSensor(all_seeing(measurement_model=model, cartesian_std=0.0))
     rng = RNG(5)
     ref = ref_range_bearing if model == "range_bearing" else ref_cartesian
     for _ in range(100):
@@ -398,7 +385,7 @@ def test_range_bearing_noise_matches_q():
 
 def test_cartesian_noise_matches_sigma_z():
     sz = 0.08
-    sensor = LandmarkSensor(all_seeing(model="cartesian", cartesian_std=sz))
+    sensor = LandmarkSensor(all_seeing(measurement_model="cartesian", cartesian_std=sz))
     assert np.array_equal(sensor.measurement_cov, np.diag([sz**2, sz**2]))
     pose, pos, ids = _scene()
     truth = np.array([ref_cartesian(pose, pos[i]) for i in np.argsort(ids)])
@@ -521,7 +508,7 @@ def test_same_seed_same_detections_and_permutation_invariance():
 
 def test_same_seed_same_odometry():
     for model in ("odometry", "velocity"):
-        sensor = OdometrySensor(OdometryConfig(model=model))
+        sensor = OdometrySensor(OdometryConfig(motion_model=model))
         poses = [(0.1 * t, 0.05 * t * t, 0.2 * t) for t in range(20)]
         r1, r2, r3 = RNG(17), RNG(17), RNG(18)
         a = [sensor.measure(p0, p1, r1) for p0, p1 in itertools.pairwise(poses)]
@@ -559,7 +546,7 @@ def _path(start, controls, apply):
 
 
 def test_odometry_true_control_recovers_the_driven_path():
-    sensor = OdometrySensor(OdometryConfig(model="odometry"))
+    sensor = OdometrySensor(OdometryConfig(motion_model="odometry"))
     assert sensor.dim == 3
     poses = _path((1.0, -2.0, 2.8), ODOMETRY_PATH, apply_odometry)
     for (name, u), p0, p1 in zip(ODOMETRY_PATH, poses[:-1], poses[1:], strict=True):
@@ -570,7 +557,7 @@ def test_odometry_true_control_recovers_the_driven_path():
 
 
 def test_velocity_true_control_recovers_the_driven_path():
-    sensor = OdometrySensor(OdometryConfig(model="velocity"))
+    sensor = OdometrySensor(OdometryConfig(motion_model="velocity"))
     assert sensor.dim == 2
     poses = _path((1.0, -2.0, -2.8), VELOCITY_PATH, apply_velocity)
     for (name, u), p0, p1 in zip(VELOCITY_PATH, poses[:-1], poses[1:], strict=True):
@@ -584,7 +571,7 @@ ALPHAS = (0.05, 0.01, 0.03, 0.02)
 
 @pytest.mark.parametrize("segment", range(len(ODOMETRY_PATH)), ids=[n for n, _ in ODOMETRY_PATH])
 def test_odometry_noise_matches_alpha_model(segment):
-    sensor = OdometrySensor(OdometryConfig(model="odometry", alphas=ALPHAS))
+    sensor = OdometrySensor(OdometryConfig(motion_model="odometry", alphas=ALPHAS))
     assert sensor.alphas == ALPHAS
     poses = _path((1.0, -2.0, 2.8), ODOMETRY_PATH, apply_odometry)
     p0, p1 = poses[segment], poses[segment + 1]
@@ -602,7 +589,7 @@ def test_odometry_noise_matches_alpha_model(segment):
 
 
 def test_odometry_half_turn_wraps_delta_rot2():
-    sensor = OdometrySensor(OdometryConfig(model="odometry", alphas=ALPHAS))
+    sensor = OdometrySensor(OdometryConfig(motion_model="odometry", alphas=ALPHAS))
     rng = RNG(19)
     draws = np.array([sensor.measure((0, 0, 0), (0, 0, 3.0), rng) for _ in range(2000)])
     # σ(δrot2) = √(α1·9) ≈ 0.67 rad: a good share of readings cross π and wrap negative
@@ -615,7 +602,7 @@ VELOCITY_NOISE = (0.01, 0.005, 0.02, 0.03)
 
 @pytest.mark.parametrize("segment", range(len(VELOCITY_PATH)), ids=[n for n, _ in VELOCITY_PATH])
 def test_velocity_noise_matches_sigma_u(segment):
-    sensor = OdometrySensor(OdometryConfig(model="velocity", velocity_noise=VELOCITY_NOISE))
+    sensor = OdometrySensor(OdometryConfig(motion_model="velocity", velocity_noise=VELOCITY_NOISE))
     assert sensor.velocity_noise == VELOCITY_NOISE
     poses = _path((1.0, -2.0, -2.8), VELOCITY_PATH, apply_velocity)
     p0, p1 = poses[segment], poses[segment + 1]
@@ -632,8 +619,8 @@ def test_velocity_noise_matches_sigma_u(segment):
 
 def test_noise_free_odometry_is_exact_and_perturb_checks_shape():
     for model, cfg in (
-        ("odometry", OdometryConfig(model="odometry", alphas=(0.0, 0.0, 0.0, 0.0))),
-        ("velocity", OdometryConfig(model="velocity", velocity_noise=(0.0, 0.0, 0.0, 0.0))),
+        ("odometry", OdometryConfig(motion_model="odometry", alphas=(0.0, 0.0, 0.0, 0.0))),
+        ("velocity", OdometryConfig(motion_model="velocity", velocity_noise=(0.0, 0.0, 0.0, 0.0))),
     ):
         sensor = OdometrySensor(cfg)
         p0, p1 = (0.3, -0.2, 1.0), (0.7, 0.1, 1.4)

@@ -14,11 +14,17 @@ Entries outside the live block are never read.
 Costs (``d = 3 + 2n``)
 ---------------------
 * ``predict``: ``P_xx ← G P_xx Gᵀ + R_x``, ``P_xm ← G P_xm`` — O(d).
-* one correction: ``C = P Hᵀ`` gathered from the 5 rows of ``P`` that ``H`` touches,
-  ``S = H C + Q`` (2×2), and one rank-4 update of ``P`` (``d×4`` by ``4×d``) — O(d²),
-  reading and writing ``P`` once. Batch mode stacks ``k`` observations: rank ``4k``.
+* one correction: ``C = P Hᵀ`` from the 5 rows of ``P`` that ``H`` touches,
+  ``S = H C + Q`` (2×2, Cholesky), the mean step ``K ν`` — O(d) — and a low-rank
+  Joseph update ``P ← P − Y Yᵀ + Z Zᵀ`` (``Y, Z: d×2``) — O(d²).
+* ``update`` with k observations applies the k low-rank terms together at its end
+  (rank 2k each, symmetric BLAS products): ``P`` is streamed twice per update, not
+  2k times; each sequential correction sees the rows it needs corrected by the ones
+  before it (O(k·d)), so this is exactly the sequential filter. Batch mode stacks
+  the k observations (S: 2k×2k) and applies the same update.
 * a new landmark: one ``2×3`` by ``3×d`` product — O(d).
-No dense ``d×d`` G, R or H is ever built, and nothing larger than S is factorised.
+No dense ``d×d`` G, R or H is ever built, nothing larger than S is factorised, and
+P stays exactly symmetric.
 """
 
 from __future__ import annotations
@@ -35,9 +41,9 @@ from slam_env.ekf.models import MEASUREMENT_MODELS, MOTION_MODELS
 __all__ = [
     "CORRECTED",
     "CORRECTION_MODES",
+    "EKFSLAM",
     "INITIALISED",
     "REJECTED",
-    "EKFSLAM",
     "Status",
     "UpdateResult",
     "chi2_gate",
@@ -352,9 +358,13 @@ class EKFSLAM:
 
     def _allocate_scratch(self) -> None:
         dmax = 3 + 2 * self._N
-        self._T = np.empty(dmax * dmax)  # the rank-4k update, as a contiguous (d, d) view
-        self._U = np.empty((4, dmax))  # [Y; Z] rows of the sequential Joseph update
-        self._V = np.empty((4, dmax))  # [Y; −Z]
+        # Flat buffers, used as contiguous (rows, d) views.
+        self._T = np.empty(dmax * dmax)  # a low-rank term of the covariance update
+        k = min(self._N, 8)  # observations per update the factor buffer holds; grows
+        self._Ub = np.empty((4 * k + 1) * dmax)  # Joseph factors of one update's corrections
+        self._signs = np.tile([[1.0], [1.0], [-1.0], [-1.0]], (k, 1))
+        self._H = np.empty((2, 5))
+        self._F = np.empty((5, 2))
 
     @staticmethod
     def _check_prior(pose: Any, cov: Any) -> tuple[np.ndarray, np.ndarray]:
@@ -511,7 +521,7 @@ class EKFSLAM:
         state = {
             k: v
             for k, v in self.__dict__.items()
-            if k not in ("_T", "_U", "_V", "_P", "_mm", "_hm", "_noise", "_q")
+            if k not in ("_T", "_Ub", "_signs", "_H", "_F", "_P", "_mm", "_hm", "_noise", "_q")
             and not k.startswith("_angle")
         }
         state["_P"] = self._P[:d, :d].copy()
@@ -537,22 +547,43 @@ class EKFSLAM:
         (odometry) or ``B Σu Bᵀ`` (velocity). Landmarks do not move. O(n).
         """
         mm = self._mm
-        u = _float_array(u, "u", (mm.control_dim,))
+        try:
+            arr = np.asarray(u, dtype=np.float64)
+        except (TypeError, ValueError) as exc:
+            raise TypeError(f"u must be an array of numbers: {exc}") from None
+        if arr.shape != (mm.control_dim,):
+            raise ValueError(
+                f"u must have shape ({mm.control_dim},) for the {mm.name} model, got {arr.shape}"
+            )
+        uv = arr.tolist()
+        if not all(map(math.isfinite, uv)):
+            raise ValueError(f"u must be finite, got {uv}")
         x, P = self._x, self._P
         d = 3 + 2 * self._n
-        pose = x[:3]
-        G, J = mm.jacobians(pose, u)  # ∂g/∂pose (3×3), ∂g/∂u (3×3 or 3×2)
-        Rx = J @ mm.noise_cov(u, self._noise) @ J.T
-        Pxx = G @ P[:3, :3] @ G.T
-        Pxx += Rx
-        P[:3, :3] = Pxx
-        P[:3, :3] += Pxx.T  # exactly symmetric: ½(A + Aᵀ)
-        P[:3, :3] *= 0.5
+        px, py, pth = x[:3].tolist()
+        # G = [[1, 0, a], [0, 1, b], [0, 0, 1]] for both models; R_x by its upper triangle.
+        nx, ny, nth, a, b, (r00, r01, r02, r11, r12, r22) = mm.linearise(
+            px, py, pth, uv, self._noise
+        )
+        (p00, p01, p02), (_, p11, p12), (_, _, p22) = P[:3, :3].tolist()
+        # G P_xx Gᵀ + R_x on the 3×3, in floats (P_xx is kept exactly symmetric).
+        q02 = p02 + a * p22
+        q12 = p12 + b * p22
+        n00 = p00 + a * p02 + a * q02 + r00
+        n01 = p01 + a * p12 + b * q02 + r01
+        n11 = p11 + b * p12 + b * q12 + r11
+        n02 = q02 + r02
+        n12 = q12 + r12
+        n22 = p22 + r22
+        P[:3, :3] = ((n00, n01, n02), (n01, n11, n12), (n02, n12, n22))
         if d > 3:
-            Pxm = G @ P[:3, 3:d]
-            P[:3, 3:d] = Pxm
-            P[3:d, :3] = Pxm.T
-        x[:3] = mm.motion(pose, u)
+            # P_xm ← G P_xm: rows x and y gain a, b times the heading row (which, like
+            # the landmark rows, is unchanged), mirrored into P_mx.
+            row = P[2, 3:d]
+            P[0, 3:d] += a * row
+            P[1, 3:d] += b * row
+            P[3:d, :2] = P[:2, 3:d].T
+        x[:3] = (nx, ny, nth)
 
     # ------------------------------------------------------------------ update
     def update(self, z: Any, ids: Any) -> UpdateResult:
@@ -566,7 +597,8 @@ class EKFSLAM:
         z, id_list = self._check_observations(z, ids)
         k = len(id_list)
         status = np.empty(k, dtype=np.int8)
-        nis = np.full(k, np.nan)
+        nis = np.empty(k)
+        nis.fill(np.nan)
         slots = self._id_to_slot
         known: list[int] = []
         new: list[int] = []
@@ -576,9 +608,7 @@ class EKFSLAM:
             if self._correction == "batch":
                 self._correct_batch(z, id_list, known, status, nis)
             else:
-                zl = z.tolist()
-                for i in known:
-                    self._correct_one(zl[i], int(slots[id_list[i]]), i, status, nis)
+                self._correct_sequential(z.tolist(), id_list, known, status, nis)
         if new:
             self._initialise(z[new], [id_list[i] for i in new])
             status[new] = Status.INITIALISED
@@ -606,102 +636,153 @@ class EKFSLAM:
             if lid < 0:
                 raise ValueError(f"landmark id {lid} is negative; ids must be in [0, {self._N})")
             if lid >= self._N:
-                raise ValueError(
-                    f"landmark id {lid} is beyond capacity (max_landmarks={self._N})"
-                )
+                raise ValueError(f"landmark id {lid} is beyond capacity (max_landmarks={self._N})")
         if len(set(id_list)) != len(id_list):
             seen: set[int] = set()
             dup = next(lid for lid in id_list if lid in seen or seen.add(lid))
             raise ValueError(f"duplicate landmark id {dup} in one update")
         return z, id_list
 
-    def _correct_one(
-        self, zi: list[float], slot: int, i: int, status: np.ndarray, nis: np.ndarray
-    ) -> None:
-        """Sequential EKF correction with one observation of the landmark in ``slot``.
+    def _factor_buffer(self, k: int, d: int) -> np.ndarray:
+        """A contiguous (4k + 1, d) scratch view for the factors of k corrections."""
+        if self._Ub.size < (4 * k + 1) * d:
+            self._Ub = np.empty((4 * k + 1) * (3 + 2 * self._N))
+            self._signs = np.tile([[1.0], [1.0], [-1.0], [-1.0]], (k, 1))
+        return self._Ub[: (4 * k + 1) * d].reshape(4 * k + 1, d)
 
-        With C = P Hᵀ (d×2) and S = H C + Q = L Lᵀ (Cholesky), the gain is
-        K = C S⁻¹ and the Joseph form
+    def _apply_joseph(self, Y: np.ndarray, Z: np.ndarray) -> None:
+        """P ← P − Yᵀ Y + Zᵀ Z on the live block (Y, Z: (r, d), stacked row factors).
+
+        Each term is a symmetric rank-r product that numpy evaluates with BLAS syrk
+        and mirrors, so P stays exactly symmetric whatever the BLAS. P is streamed
+        twice per update, however many observations it folds in.
+        """
+        d = Y.shape[1]
+        T = self._T[: d * d].reshape(d, d)
+        Pv = self._P[:d, :d]
+        np.matmul(Y.T, Y, out=T)
+        np.subtract(Pv, T, out=Pv)
+        np.matmul(Z.T, Z, out=T)
+        np.add(Pv, T, out=Pv)
+
+    def _correct_sequential(
+        self,
+        zl: list[list[float]],
+        id_list: list[int],
+        known: list[int],
+        status: np.ndarray,
+        nis: np.ndarray,
+    ) -> None:
+        """Sequential EKF corrections, one observation at a time, each re-linearised
+        at the mean corrected by the ones before it.
+
+        One observation: with C = P Hᵀ (d×2), S = H C + Q = L Lᵀ (Cholesky) and the
+        gain K = C S⁻¹, the Joseph form
 
             P⁺ = (I − KH) P (I − KH)ᵀ + K Q Kᵀ = P − K Cᵀ − C Kᵀ + K S Kᵀ
                = P − Y Yᵀ + Z Zᵀ,   Y = C L⁻ᵀ,  Z = (C − K S) L⁻ᵀ,
 
-        holds for *any* gain K. Why Joseph: the gain we apply is only the optimal one
-        up to rounding, and the Joseph form stays the covariance of the estimate we
-        actually make — an error in K only adds the PSD term Z Zᵀ instead of breaking
-        symmetry or definiteness (for the exact optimal gain Z = 0 and this is the
-        standard P − C S⁻¹ Cᵀ). Written as [Y, Z]·[Y, −Z]ᵀ it is one d×4 by 4×d
-        product whose (i, j) and (j, i) entries sum the same products in the same
-        order, so P stays symmetric, and P is read and written once.
+        an identity for *any* gain K. Why Joseph: the gain we apply is optimal only up
+        to rounding, and the Joseph form stays the covariance of the estimate actually
+        made with it (an error in K only adds the PSD term Z Zᵀ; the short form
+        (I − KH) P takes it at first order and drifts from symmetry). Y is the
+        well-scaled factor of the symmetric form P − C S⁻¹ Cᵀ, to which this reduces
+        for the exact gain. The two terms are symmetric (syrk) products, so P stays
+        exactly symmetric.
+
+        Cost: the mean is corrected at once (O(d)); the O(d²) covariance update is
+        deferred. Observation j only needs the 5 rows of P that its H touches: the
+        rows at the start of the update minus the low-rank terms of the corrections
+        before it (O(j·d)). At the end all terms are applied together
+        (:meth:`_apply_joseph`), so an update streams P twice however many
+        observations it has. Mathematically this is exactly the sequential filter.
         """
         x, P = self._x, self._P
         d = 3 + 2 * self._n
-        s = 3 + 2 * slot
-        rx, ry, rth = x[:3].tolist()
-        mx, my = x[s : s + 2].tolist()
-        try:
-            zh0, zh1, h0, h1 = self._hm.linearise(rx, ry, rth, mx, my)
-        except ZeroDivisionError:  # the landmark estimate sits on the robot
-            status[i] = Status.REJECTED
-            self._n_rejected += 1
-            return
-        nu0 = zi[0] - zh0
-        nu1 = zi[1] - zh1
-        if self._angle0:
-            nu0 = (nu0 + math.pi) % _TWO_PI - math.pi
-        if self._angle1:
-            nu1 = (nu1 + math.pi) % _TWO_PI - math.pi
-        idx = [0, 1, 2, s, s + 1]
-        H = np.array((h0, h1))  # the 5 non-zero columns of H (2×5)
-        Ct = H @ P[idx, :d]  # Cᵀ = H P (2×d), from the 5 rows of P H touches (P = Pᵀ)
-        (c00, c01, c02, c03, c04), (c10, c11, c12, c13, c14) = Ct[:, idx].tolist()
+        U = self._factor_buffer(len(known), d)  # rows Y₁ᵀ, Z₁ᵀ, Y₂ᵀ, Z₂ᵀ, … (+ scratch)
+        H, F, signs = self._H, self._F, self._signs
+        slots = self._id_to_slot
+        lin = self._hm.linearise
         q00, q01, q11 = self._q
-        # S = H P Hᵀ + Q, entry by entry (the (1, 0) entry is the (0, 1) one).
-        s00 = c00 * h0[0] + c01 * h0[1] + c02 * h0[2] + c03 * h0[3] + c04 * h0[4] + q00
-        s01 = c00 * h1[0] + c01 * h1[1] + c02 * h1[2] + c03 * h1[3] + c04 * h1[4] + q01
-        s11 = c10 * h1[0] + c11 * h1[1] + c12 * h1[2] + c13 * h1[3] + c14 * h1[4] + q11
-        # Cholesky S = L Lᵀ of the 2×2 and its inverse L⁻¹ = [[i00, 0], [i10, i11]].
-        l00 = math.sqrt(s00)
-        l10 = s01 / l00
-        l11 = math.sqrt(s11 - l10 * l10)
-        i00 = 1.0 / l00
-        i11 = 1.0 / l11
-        i10 = -l10 * i00 * i11
-        w0 = i00 * nu0  # w = L⁻¹ν, NIS = νᵀS⁻¹ν = |w|²
-        w1 = i10 * nu0 + i11 * nu1
-        value = w0 * w0 + w1 * w1
-        nis[i] = value
-        if self._gate is not None and value > self._gate:
-            status[i] = Status.REJECTED
-            self._n_rejected += 1
-            return
-        # S⁻¹ = L⁻ᵀ L⁻¹; the gain is K = C S⁻¹ and E₂ = I − S S⁻¹ its residual,
-        # so that C − K S = C E₂ᵀ... written on the rows: (C − K S)ᵀ = E₂ Cᵀ.
-        a00 = i00 * i00 + i10 * i10
-        a01 = i10 * i11
-        a11 = i11 * i11
-        e00 = 1.0 - (s00 * a00 + s01 * a01)
-        e01 = -(s00 * a01 + s01 * a11)
-        e10 = -(s01 * a00 + s11 * a01)
-        e11 = 1.0 - (s01 * a01 + s11 * a11)
-        # Rows of Yᵀ = L⁻¹ Cᵀ, Zᵀ = L⁻¹ E₂ Cᵀ and the mean step (K ν)ᵀ = (S⁻¹ν)ᵀ Cᵀ.
-        z00 = i00 * e00
-        z01 = i00 * e01
-        z10 = i10 * e00 + i11 * e10
-        z11 = i10 * e01 + i11 * e11
-        g0 = a00 * nu0 + a01 * nu1
-        g1 = a01 * nu0 + a11 * nu1
-        U = self._U[:, :d]
-        V = self._V[:, :d]
-        np.matmul(((i00, 0.0), (i10, i11), (z00, z01), (z10, z11)), Ct, out=U)
-        np.matmul(((i00, 0.0), (i10, i11), (-z00, -z01), (-z10, -z11)), Ct, out=V)
-        x[:d] += np.dot((g0, g1), Ct)
-        x[2] = (x[2] + math.pi) % _TWO_PI - math.pi
-        T = self._T[: d * d].reshape(d, d)
-        np.matmul(U.T, V, out=T)
-        Pv = P[:d, :d]
-        np.subtract(Pv, T, out=Pv)
-        status[i] = Status.CORRECTED
+        gate = self._gate
+        r = 0  # factor rows in use: 4 per applied correction
+        for i in known:
+            s = 3 + 2 * int(slots[id_list[i]])
+            rx, ry, rth = x[:3].tolist()
+            mx, my = x[s : s + 2].tolist()
+            try:
+                zh0, zh1, h0, h1 = lin(rx, ry, rth, mx, my)
+            except ZeroDivisionError:  # the landmark estimate sits on the robot
+                status[i] = Status.REJECTED
+                self._n_rejected += 1
+                continue
+            zi = zl[i]
+            nu0 = zi[0] - zh0
+            nu1 = zi[1] - zh1
+            if self._angle0:
+                nu0 = (nu0 + math.pi) % _TWO_PI - math.pi
+            if self._angle1:
+                nu1 = (nu1 + math.pi) % _TWO_PI - math.pi
+            idx = (0, 1, 2, s, s + 1)
+            # The 5 rows of the current P that H touches (P = Pᵀ): those at the start
+            # of the update minus Σ (Y Yᵀ − Z Zᵀ) of the corrections made since.
+            R = P.take(idx, axis=0)[:, :d]
+            if r:
+                Ur = U[:r]
+                R -= np.dot((Ur.take(idx, axis=1) * signs[:r]).T, Ur)
+            H[0] = h0  # the 5 non-zero columns of H (2×5)
+            H[1] = h1
+            Ct = np.dot(H, R)  # Cᵀ = H P (2×d)
+            (c00, c01, c02, c03, c04), (c10, c11, c12, c13, c14) = Ct.take(idx, 1).tolist()
+            # S = H P Hᵀ + Q, entry by entry (the (1, 0) entry is the (0, 1) one).
+            s00 = c00 * h0[0] + c01 * h0[1] + c02 * h0[2] + c03 * h0[3] + c04 * h0[4] + q00
+            s01 = c00 * h1[0] + c01 * h1[1] + c02 * h1[2] + c03 * h1[3] + c04 * h1[4] + q01
+            s11 = c10 * h1[0] + c11 * h1[1] + c12 * h1[2] + c13 * h1[3] + c14 * h1[4] + q11
+            # Cholesky S = L Lᵀ of the 2×2 and L⁻¹ = [[i00, 0], [i10, i11]].
+            l00 = math.sqrt(s00)
+            l10 = s01 / l00
+            l11 = math.sqrt(s11 - l10 * l10)
+            i00 = 1.0 / l00
+            i11 = 1.0 / l11
+            i10 = -l10 * i00 * i11
+            w0 = i00 * nu0  # w = L⁻¹ν, NIS = νᵀS⁻¹ν = |w|²
+            w1 = i10 * nu0 + i11 * nu1
+            value = w0 * w0 + w1 * w1
+            nis[i] = value
+            if gate is not None and value > gate:
+                status[i] = Status.REJECTED
+                self._n_rejected += 1
+                continue
+            # S⁻¹ = L⁻ᵀ L⁻¹ = [[g00, g01], [g01, g11]]; the gain K = C S⁻¹ leaves the
+            # residual (C − K S)ᵀ = E Cᵀ with E = I − S S⁻¹ (zero up to rounding).
+            g00 = i00 * i00 + i10 * i10
+            g01 = i10 * i11
+            g11 = i11 * i11
+            e00 = 1.0 - (s00 * g00 + s01 * g01)
+            e01 = -(s00 * g01 + s01 * g11)
+            e10 = -(s01 * g00 + s11 * g01)
+            e11 = 1.0 - (s01 * g01 + s11 * g11)
+            # Rows Yᵀ = L⁻¹ Cᵀ, Zᵀ = L⁻¹ E Cᵀ and the mean step (K ν)ᵀ = (S⁻¹ν)ᵀ Cᵀ.
+            F.flat = (
+                i00,
+                0.0,
+                i10,
+                i11,
+                i00 * e00,
+                i00 * e01,
+                i10 * e00 + i11 * e10,
+                i10 * e01 + i11 * e11,
+                g00 * nu0 + g01 * nu1,
+                g01 * nu0 + g11 * nu1,
+            )
+            np.dot(F, Ct, out=U[r : r + 5])
+            x[:d] += U[r + 4]
+            x[2] = (x[2] + math.pi) % _TWO_PI - math.pi
+            status[i] = Status.CORRECTED
+            r += 4
+        if r:
+            W = U[:r].reshape(r // 4, 4, d)
+            self._apply_joseph(W[:, :2].reshape(r // 2, d), W[:, 2:].reshape(r // 2, d))
 
     def _correct_batch(
         self,
@@ -713,7 +794,7 @@ class EKFSLAM:
     ) -> None:
         """Batch EKF correction: every known observation gated on its own 2×2 block
         of S, the accepted ones stacked (H: 2k×d through its non-zero columns) and
-        applied at once with the Joseph form of :meth:`_correct_one` (rank 4k)."""
+        applied at once with the Joseph form of :meth:`_correct_sequential`."""
         x, P = self._x, self._P
         d = 3 + 2 * self._n
         hm = self._hm
@@ -727,26 +808,27 @@ class EKFSLAM:
                 status[known[j]] = Status.REJECTED
                 self._n_rejected += 1
             keep = ~singular
-            known = [i for i, ok in zip(known, keep.tolist()) if ok]
+            known = [i for i, ok in zip(known, keep.tolist(), strict=True) if ok]
             s, m = s[keep], m[keep]
             if not known:
                 return
         k = len(known)
-        zk = z[known]
-        nu = zk - hm.h(pose, m)
+        nu = z[known] - hm.h(pose, m)
         if self._angle0:
             nu[:, 0] = (nu[:, 0] + math.pi) % _TWO_PI - math.pi
         if self._angle1:
             nu[:, 1] = (nu[:, 1] + math.pi) % _TWO_PI - math.pi
         Hx, Hm = hm.jacobians(pose, m)
-        H = np.concatenate([Hx, Hm], axis=2)  # (k, 2, 5)
+        H = np.concatenate([Hx, Hm], axis=2)  # (k, 2, 5): the non-zero columns of H
         idx = np.empty((k, 5), dtype=np.int64)
         idx[:, :3] = (0, 1, 2)
         idx[:, 3] = s
         idx[:, 4] = s + 1
-        Ct = (H @ P[idx.ravel(), :d].reshape(k, 5, d)).reshape(2 * k, d)  # Cᵀ = H P
+        flat = idx.ravel()
+        R = P.take(flat, axis=0)[:, :d].reshape(k, 5, d)
+        Ct = np.matmul(H, R).reshape(2 * k, d)  # Cᵀ = H P (2k×d)
         # S[(a, r), (b, c)] = Σ_j Cᵀ[(a, r), idx[b, j]] H[b, c, j] + δ_ab Q[r, c]
-        S = np.einsum("xbj,bcj->xbc", Ct[:, idx.ravel()].reshape(2 * k, k, 5), H)
+        S = np.einsum("xbj,bcj->xbc", Ct.take(flat, axis=1).reshape(2 * k, k, 5), H)
         S = S.reshape(2 * k, 2 * k)
         S = 0.5 * (S + S.T)
         blocks = S.reshape(k, 2, k, 2)
@@ -760,32 +842,23 @@ class EKFSLAM:
         if self._gate is not None:
             ok = own <= self._gate
             if not ok.all():
-                bad = [i for i, good in zip(known, ok.tolist()) if not good]
+                bad = [i for i, good in zip(known, ok.tolist(), strict=True) if not good]
                 status[bad] = Status.REJECTED
                 self._n_rejected += len(bad)
                 if not ok.any():
                     return
                 rows = np.repeat(ok, 2)
                 Ct, S, nu = Ct[rows], S[np.ix_(rows, rows)], nu[ok]
-                known = [i for i, good in zip(known, ok.tolist()) if good]
-        k2 = Ct.shape[0]
-        # Joseph form as in _correct_one, with S = L Lᵀ (2k×2k) the only factorisation.
-        Lc = np.linalg.cholesky(S)
-        eye = np.eye(k2)
-        Li = np.linalg.solve(Lc, eye)  # L⁻¹ (triangular, 2k×2k)
+                known = [i for i, good in zip(known, ok.tolist(), strict=True) if good]
+        # Joseph form as in _correct_sequential, S = L Lᵀ (2k×2k) the only factorisation.
+        eye = np.eye(Ct.shape[0])
+        Li = np.linalg.solve(np.linalg.cholesky(S), eye)  # L⁻¹
         Sinv = Li.T @ Li
-        E2 = eye - S @ Sinv  # gain residual: (C − K S)ᵀ = E₂ Cᵀ for K = C S⁻¹
-        F = np.concatenate([Li, Li @ E2])  # rows of [Y, Z]ᵀ from Cᵀ
-        FV = F.copy()
-        FV[k2:] *= -1.0
-        U = F @ Ct
-        V = FV @ Ct
+        Y = Li @ Ct  # Yᵀ = L⁻¹ Cᵀ
+        Z = (Li @ (eye - S @ Sinv)) @ Ct  # Zᵀ = L⁻¹ (C − K S)ᵀ for K = C S⁻¹
         x[:d] += (Sinv @ nu.ravel()) @ Ct  # x += K ν
         x[2] = (x[2] + math.pi) % _TWO_PI - math.pi
-        T = self._T[: d * d].reshape(d, d)
-        np.matmul(U.T, V, out=T)
-        Pv = P[:d, :d]
-        np.subtract(Pv, T, out=Pv)
+        self._apply_joseph(Y, Z)
         status[known] = Status.CORRECTED
 
     def _initialise(self, z: np.ndarray, new_ids: list[int]) -> None:

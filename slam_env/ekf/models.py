@@ -120,6 +120,52 @@ def velocity_jacobians(pose, u) -> tuple[np.ndarray, np.ndarray]:
     return A, B
 
 
+def odometry_linearise(
+    x: float, y: float, th: float, u, alphas
+) -> tuple[float, float, float, float, float, tuple[float, ...]]:
+    """Scalar fast path of the odometry prediction: ``(x', y', θ', a, b, R)``.
+
+    The next pose g(pose, u); G = ∂g/∂pose = [[1, 0, a], [0, 1, b], [0, 0, 1]]; and
+    R_x = V M Vᵀ as its upper triangle (r00, r01, r02, r11, r12, r22).
+    """
+    rot1, trans, rot2 = u
+    a1, a2, a3, a4 = alphas
+    r1, t2, r2 = rot1 * rot1, trans * trans, rot2 * rot2
+    m0 = a1 * r1 + a2 * t2
+    m1 = a3 * t2 + a4 * (r1 + r2)
+    m2 = a1 * r2 + a2 * t2
+    h = th + rot1
+    c, s = math.cos(h), math.sin(h)
+    ts, tc = trans * s, trans * c
+    # V = [[−ts, c, 0], [tc, s, 0], [1, 0, 1]], R_x = V diag(m0, m1, m2) Vᵀ.
+    R = (
+        ts * ts * m0 + c * c * m1,
+        -ts * tc * m0 + c * s * m1,
+        -ts * m0,
+        tc * tc * m0 + s * s * m1,
+        tc * m0,
+        m0 + m2,
+    )
+    return x + tc, y + ts, _wrap(h + rot2), -ts, tc, R
+
+
+def velocity_linearise(
+    x: float, y: float, th: float, u, noise
+) -> tuple[float, float, float, float, float, tuple[float, ...]]:
+    """Scalar fast path of the velocity prediction: ``(x', y', θ', a, b, R)``.
+
+    A = ∂f/∂pose = [[1, 0, a], [0, 1, b], [0, 0, 1]]; R_x = B Σu Bᵀ as its upper
+    triangle (r00, r01, r02, r11, r12, r22).
+    """
+    dp, dth = u
+    sp, sth, bp, bth = noise
+    v0 = sp * sp + bp * dp * dp
+    v1 = sth * sth + bth * dth * dth
+    c, s = math.cos(th), math.sin(th)
+    R = (c * c * v0, c * s * v0, 0.0, s * s * v0, 0.0, v1)
+    return x + dp * c, y + dp * s, _wrap(th + dth), -dp * s, dp * c, R
+
+
 @dataclass(frozen=True)
 class MotionModel:
     """A motion model as the filter uses it.
@@ -127,6 +173,9 @@ class MotionModel:
     ``motion(pose, u) -> pose'``; ``jacobians(pose, u) -> (∂g/∂pose, ∂g/∂u)``;
     ``noise_cov(u, params) -> control covariance`` (M or Σu) so that
     ``R_x = J_u · noise_cov · J_uᵀ``; ``control_dim`` is the length of u.
+    ``linearise(x, y, θ, u, params)`` is the scalar fast path the filter calls; it
+    relies on ∂g/∂pose having the form [[1, 0, a], [0, 1, b], [0, 0, 1]] (true of
+    both models: the heading enters the position only, nothing enters the heading).
     """
 
     name: str
@@ -134,11 +183,26 @@ class MotionModel:
     motion: Callable[..., np.ndarray]
     jacobians: Callable[..., tuple[np.ndarray, np.ndarray]]
     noise_cov: Callable[..., np.ndarray]
+    linearise: Callable[..., tuple[float, float, float, float, float, tuple[float, ...]]]
 
 
 MOTION_MODELS: dict[str, MotionModel] = {
-    "odometry": MotionModel("odometry", 3, odometry_motion, odometry_jacobians, odometry_action_cov),
-    "velocity": MotionModel("velocity", 2, velocity_motion, velocity_jacobians, velocity_control_cov),
+    "odometry": MotionModel(
+        "odometry",
+        3,
+        odometry_motion,
+        odometry_jacobians,
+        odometry_action_cov,
+        odometry_linearise,
+    ),
+    "velocity": MotionModel(
+        "velocity",
+        2,
+        velocity_motion,
+        velocity_jacobians,
+        velocity_control_cov,
+        velocity_linearise,
+    ),
 }
 
 

@@ -65,6 +65,22 @@ def test_motion_jacobians_match_finite_differences(name):
         np.testing.assert_allclose(J, fd_u, rtol=0, atol=TOL)
 
 
+@pytest.mark.parametrize("name", ["odometry", "velocity"])
+def test_scalar_motion_linearise_equals_the_model(name):
+    mm = MOTION_MODELS[name]
+    params = (0.1, 0.2, 0.3, 0.4)
+    rng = np.random.default_rng(8)
+    for _ in range(30):
+        pose, u = random_pose(rng), random_control(rng, name)
+        nx, ny, nth, a, b, r = mm.linearise(*pose.tolist(), u.tolist(), params)
+        G, J = mm.jacobians(pose, u)
+        Rx = J @ mm.noise_cov(u, params) @ J.T
+        np.testing.assert_allclose([nx, ny, nth], mm.motion(pose, u), rtol=0, atol=1e-14)
+        np.testing.assert_allclose(G, [[1, 0, a], [0, 1, b], [0, 0, 1]], rtol=0, atol=1e-14)
+        upper = Rx[np.triu_indices(3)]
+        np.testing.assert_allclose(r, upper, rtol=1e-12, atol=1e-15)
+
+
 def test_motion_models_follow_the_seed_equations():
     pose = np.array([1.0, 2.0, 0.5])
     g = models.odometry_motion(pose, (0.2, 3.0, -0.1))

@@ -1,0 +1,187 @@
+"""The ``slam-env`` command (also ``python -m agents``).
+
+    slam-env train    [--config YAML] [--total-steps N] [--n-envs K] [--seed S] [--out DIR]
+    slam-env evaluate --agents random,frontier,infogain,ppo:PATH [--episodes 20] [--seed 0]
+                      [--out DIR] [--max-steps N] [--env-option KEY=VALUE ...]
+    slam-env demo     [--agent SPEC] [--seed S] [--out DIR] [--no-gif] [--max-steps N]
+
+Bad arguments exit with status 2 and a message naming the problem.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+PROG = "slam-env"
+
+
+def _positive_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected an integer, got {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be >= 1, got {value}")
+    return value
+
+
+def _non_negative_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected an integer, got {text!r}") from None
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"must be >= 0, got {value}")
+    return value
+
+
+def _env_option(text: str) -> tuple[str, Any]:
+    key, sep, raw = text.partition("=")
+    key = key.strip()
+    if not sep or not key:
+        raise argparse.ArgumentTypeError(f"expected KEY=VALUE (e.g. n_landmarks=10), got {text!r}")
+    try:
+        value = yaml.safe_load(raw) if raw.strip() else None
+    except yaml.YAMLError as exc:
+        raise argparse.ArgumentTypeError(f"cannot parse the value of {key!r}: {exc}") from None
+    return key, value
+
+
+def _options(pairs: Sequence[tuple[str, Any]] | None) -> dict[str, Any] | None:
+    return dict(pairs) if pairs else None
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog=PROG,
+        description="Active SLAM agents on slam_env/ActiveSLAM-v0: train PPO, compare "
+        "agents, run the demo.",
+    )
+    sub = parser.add_subparsers(dest="command", metavar="{train,evaluate,demo}")
+    sub.required = True
+    env_help = "an env option KEY=VALUE (YAML value), e.g. n_landmarks=10; repeatable"
+
+    p = sub.add_parser("train", help="train a PPO policy", description="Train PPO.")
+    p.add_argument("--config", type=Path, help="training config YAML (default: ppo_default.yaml)")
+    p.add_argument("--total-steps", type=_positive_int, help="env steps to train for")
+    p.add_argument("--n-envs", type=_positive_int, help="parallel envs (processes)")
+    p.add_argument("--seed", type=_non_negative_int, help="training seed")
+    p.add_argument("--out", type=str, help="output folder (model, config, logs)")
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+
+    p = sub.add_parser(
+        "evaluate",
+        help="compare agents on the same seeded worlds",
+        description="Run every agent on the same seeded worlds; write a table and plots.",
+    )
+    p.add_argument(
+        "--agents",
+        required=True,
+        help="comma-separated agent specs: random, frontier, infogain, ppo, ppo:PATH",
+    )
+    p.add_argument("--episodes", type=_positive_int, default=20, help="episodes per agent")
+    p.add_argument("--seed", type=_non_negative_int, default=0, help="episode i uses seed+i")
+    p.add_argument("--out", type=str, default="out/eval", help="output folder")
+    p.add_argument("--max-steps", type=_positive_int, help="episode length (default 500)")
+    p.add_argument("--env-option", type=_env_option, action="append", help=env_help)
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+
+    p = sub.add_parser(
+        "demo",
+        help="run the best shipped agent once: GIF, final map, metrics",
+        description="One episode of an agent on the default world: GIF, map PNG, metrics.",
+    )
+    p.add_argument("--agent", type=str, help="agent spec (default: the best shipped agent)")
+    p.add_argument("--seed", type=_non_negative_int, default=0, help="world seed")
+    p.add_argument("--out", type=str, default="out", help="output folder")
+    p.add_argument("--no-gif", action="store_true", help="skip the animated GIF")
+    p.add_argument("--max-steps", type=_positive_int, help="episode length (default 500)")
+    p.add_argument("--env-option", type=_env_option, action="append", help=env_help)
+    return parser
+
+
+def _run_train(args: argparse.Namespace) -> int:
+    from rich.console import Console
+    from rich.markup import escape
+
+    from agents.training import load_config, train
+
+    cfg = load_config(
+        args.config,
+        total_timesteps=args.total_steps,
+        n_envs=args.n_envs,
+        seed=args.seed,
+        out_dir=args.out,
+        progress_bar=False if args.no_progress else None,
+    )
+    path = train(cfg)
+    console = Console()
+    console.print(f"model: {escape(str(path))}")
+    summary_file = path.parent / "training_summary.json"
+    if summary_file.is_file():
+        s = json.loads(summary_file.read_text())
+        console.print(
+            f"{s['timesteps']} env steps in {s['wall_time_s']:.1f} s "
+            f"({s['env_steps_per_s']} steps/s with {s['n_envs']} envs)"
+        )
+    return 0
+
+
+def _run_evaluate(args: argparse.Namespace) -> int:
+    from agents.evaluation import evaluate
+
+    result = evaluate(
+        args.agents,
+        episodes=args.episodes,
+        seed=args.seed,
+        env_options=_options(args.env_option),
+        out_dir=args.out,
+        max_steps=args.max_steps,
+        progress=not args.no_progress,
+    )
+    for name, path in result.files.items():
+        print(f"{name}: {path}")
+    return 0
+
+
+def _run_demo(args: argparse.Namespace) -> int:
+    from agents.demo import demo
+
+    demo(
+        args.agent,
+        seed=args.seed,
+        out_dir=args.out,
+        gif=not args.no_gif,
+        max_steps=args.max_steps,
+        env_options=_options(args.env_option),
+    )
+    return 0
+
+
+_COMMANDS = {"train": _run_train, "evaluate": _run_evaluate, "demo": _run_demo}
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point; returns the exit status (bad arguments raise ``SystemExit(2)``)."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        return _COMMANDS[args.command](args)
+    except (ValueError, FileNotFoundError) as exc:
+        # Config, agent spec, env option or policy-file problems: a usage error.
+        parser.exit(2, f"{PROG} {args.command}: error: {exc}\n")
+    except KeyboardInterrupt as exc:
+        print(f"{PROG} {args.command}: {exc or 'interrupted'}", file=sys.stderr)
+        return 130
+    return 0  # unreachable: parser.exit raises
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

@@ -1,0 +1,478 @@
+"""Frontier exploration with loop closing, on the EKF-SLAM belief."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+
+from agents.navigation import (
+    ControllerParams,
+    EpisodeWatch,
+    ExplorationMemory,
+    PathFollower,
+    StuckDetector,
+    belief_env,
+    box_sum,
+    dijkstra,
+    is_truthy,
+    path_from_parents,
+    unicycle_control,
+)
+from slam_env.geometry import wrap_angle
+
+EXPLORE, LOCALISE, REFINE = "explore", "localise", "refine"
+
+
+@dataclass(frozen=True)
+class FrontierParams:
+    """Parameters of :class:`FrontierAgent` (units in the comments)."""
+
+    planning_resolution: float = 0.25  # m, planning grid cell
+    coverage_resolution: float = 0.5  # m, coverage grid cell
+    safety_margin: float = 0.07  # m, inflation of the known map beyond the robot radius
+    soft_clearance: float = 0.8  # m, paths closer than this to the known map cost more
+    proximity_cost: float = 3.0  # extra cost factor at the inflation boundary
+    range_margin: float = 0.4  # m, a cell is swept when its centre is this far inside range
+    fov_margin: float = math.radians(4.0)  # rad, and this far inside the FOV edges
+    gain_radius: float = 1.5  # m, half-side of the window whose unswept area a target gains
+    gain_weight: float = 0.6  # m of path traded per m² of unswept area at the target
+    min_gain: float = 1.0  # m², a target with less unswept area around it is done
+    turn_weight: float = 1.0  # m of path traded per rad of turn toward a target
+    switch_margin: float = 1.0  # m, a new target must score this much better than the current
+    lookahead: float = 0.6  # m, pure-pursuit look-ahead along the path
+    replan_interval: int = 10  # steps between re-plans of the current target
+    goal_tolerance: float = 0.35  # m, a target is reached this close
+    look_tolerance: float = math.radians(20.0)  # rad, facing a look-at point this well
+    look_timeout: int = 15  # steps spent turning toward a look-at point at most
+    loop_close_std: float = 0.4  # m, pose σ (√trace of the position cov) that starts a loop closure
+    loop_close_done_std: float = 0.2  # m, pose σ at which loop closing stops
+    loop_close_timeout: int = 40  # steps before a loop closure gives up (and pauses as long)
+    loop_close_step: float = 0.1  # m, σ growth before retrying a loop closure that failed
+    useful_ratio: float = 0.5  # loop closing only uses landmarks with σ below this × pose σ
+    max_detour: float = 5.0  # m, loop closing only uses landmarks with a viewpoint this near
+    view_distance: tuple[float, float] = (1.0, 3.0)  # m, viewpoint ring around a landmark
+    uncertainty_weight: float = 10.0  # m of path per m of landmark σ (landmark choice)
+    stuck_steps: int = 4  # steps of commanded motion without progress before backing off
+    recovery_steps: int = 6  # steps of backing off when stuck
+    cruise: float = 1.0  # fraction of max speed when aligned with the path
+    turn_limit: float = 0.5  # fraction of the max turn rate used (gentle turns: less drift)
+    bump_radius: float = 0.5  # m, disc blocked ahead of the robot when it gets stuck
+
+    def __post_init__(self) -> None:
+        positive = (
+            "planning_resolution",
+            "coverage_resolution",
+            "gain_radius",
+            "lookahead",
+            "goal_tolerance",
+            "look_tolerance",
+            "loop_close_std",
+            "loop_close_done_std",
+            "loop_close_step",
+            "max_detour",
+            "cruise",
+            "turn_limit",
+            "bump_radius",
+        )
+        for name in positive:
+            value = getattr(self, name)
+            if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
+                raise ValueError(f"FrontierParams.{name} must be finite and > 0, got {value!r}")
+        for name in (
+            "replan_interval",
+            "loop_close_timeout",
+            "stuck_steps",
+            "recovery_steps",
+            "look_timeout",
+        ):
+            value = getattr(self, name)
+            if not isinstance(value, int) or value < 1:
+                raise ValueError(f"FrontierParams.{name} must be an int >= 1, got {value!r}")
+        if self.loop_close_done_std > self.loop_close_std:
+            raise ValueError("FrontierParams.loop_close_done_std must be <= loop_close_std")
+        lo, hi = self.view_distance
+        if not 0.0 <= lo < hi:
+            raise ValueError("FrontierParams.view_distance must be (lo, hi), 0 <= lo < hi")
+
+
+def make_params(cls: type, params: dict[str, Any]) -> Any:
+    """``cls(**params)`` with a ``TypeError`` that lists the valid names."""
+    valid = {f.name for f in dataclasses.fields(cls)}
+    unknown = sorted(set(params) - valid)
+    if unknown:
+        raise TypeError(f"unknown {cls.__name__} {unknown}; valid: {sorted(valid)}")
+    return cls(**params)
+
+
+class FrontierAgent:
+    """Frontier exploration on the EKF-SLAM belief, with loop closing.
+
+    Each step the agent sweeps a coarse coverage grid with the sensor footprint (range,
+    FOV, occlusion by the known map) seen from the filter's *estimated* pose. It plans
+    with Dijkstra on a grid of the known map (walls and obstacles inflated by the robot
+    radius plus a margin, and the estimated landmark posts) to the frontier target
+    that minimises path length − ``gain_weight``·(unswept area around it), follows the
+    path with pure pursuit, and on arrival turns to face the unswept cells.
+
+    When the pose uncertainty σ = √(Σxx + Σyy) from ``filter.pose_cov`` exceeds
+    ``loop_close_std`` it closes a loop instead: it drives to a viewpoint of the known
+    landmark that is cheapest to reach and best known (path + weight·landmark σ), and
+    faces it, until σ falls below ``loop_close_done_std``. Once nothing is left to
+    sweep it revisits the least certain landmarks.
+
+    It reads only the belief (``env.unwrapped.filter``), the known map
+    (``raw_env.layout`` obstacles and walls) and the env's configuration; never the
+    true pose or landmark positions. Deterministic; ``seed`` seeds its own generator
+    (used to break ties when it has to back off an obstacle).
+
+    Args:
+        env: a ``slam_env/ActiveSLAM-v0`` env (continuous actions).
+        seed: seed of the agent's random generator.
+        **params: overrides of :class:`FrontierParams`.
+    """
+
+    def __init__(self, env: gym.Env, seed: int | None = None, **params: Any) -> None:
+        self._base = belief_env(env)
+        self.params: FrontierParams = make_params(FrontierParams, params)
+        self.rng = np.random.default_rng(seed)
+        cfg = self._base.config
+        self._control = ControllerParams(
+            max_speed=cfg.robot.max_speed,
+            max_turn_rate=cfg.robot.max_turn_rate,
+            dt=cfg.dt,
+            cruise=self.params.cruise,
+            turn_limit=self.params.turn_limit,
+        )
+        self._watch = EpisodeWatch()
+        self._memory: ExplorationMemory | None = None
+
+    # ------------------------------------------------------------------ interface
+    def predict(
+        self,
+        observation: Any,
+        state: Any = None,
+        episode_start: Any = None,
+        deterministic: bool = False,
+    ) -> tuple[np.ndarray, Any]:
+        """The next action, float32 (2,) in [−1, 1]; ``state`` is passed through."""
+        base = self._base
+        if is_truthy(episode_start) or self._memory is None or self._watch.is_new(base):
+            self.reset()
+        action = np.clip(self._act(), -1.0, 1.0).astype(np.float32)
+        self._last_speed = float(action[0])
+        self._watch.mark(base)
+        return action, state
+
+    def reset(self) -> None:
+        """Forget the episode: rebuild the maps from the current layout."""
+        base = self._base
+        p = self.params
+        self._memory = ExplorationMemory(
+            base.raw_env.layout,
+            base.config,
+            planning_resolution=p.planning_resolution,
+            coverage_resolution=p.coverage_resolution,
+            safety_margin=p.safety_margin,
+            soft_clearance=p.soft_clearance,
+            proximity_cost=p.proximity_cost,
+            range_margin=p.range_margin,
+            fov_margin=p.fov_margin,
+        )
+        cg = self._memory.coverage.grid
+        self._gain_cells = max(1, round(p.gain_radius / cg.resolution))
+        self._abandoned = np.zeros(cg.shape, dtype=bool)
+        self._mode = EXPLORE
+        self._follower: PathFollower | None = None
+        self._look_at: np.ndarray | None = None
+        self._look_steps = 0
+        self._target_landmark = -1
+        self._since_plan = 0
+        self._mode_steps = 0
+        self._tried: set[int] = set()
+        self._n_posts = -1
+        self._recovery = 0
+        self._cooldown = 0
+        self._trigger = self.params.loop_close_std
+        cfg = self._base.config
+        self._stuck = StuckDetector(p.stuck_steps, step_length=cfg.robot.max_speed * cfg.dt)
+        self._last_speed = 0.0
+        self._watch.forget()
+
+    @property
+    def mode(self) -> str:
+        """``"explore"``, ``"localise"`` (closing a loop) or ``"refine"`` (all swept)."""
+        return self._mode
+
+    @property
+    def memory(self) -> ExplorationMemory | None:
+        """The episode's maps (planning grid, coverage)."""
+        return self._memory
+
+    # ------------------------------------------------------------------ decision
+    def _act(self) -> np.ndarray:
+        p = self.params
+        mem = self._memory
+        assert mem is not None
+        f = self._base.filter
+        pose = f.pose
+        cov = f.pose_cov
+        sigma = math.sqrt(max(cov[0, 0] + cov[1, 1], 0.0))
+        mem.coverage.sweep(pose)
+        if f.n_landmarks != self._n_posts:
+            mem.set_posts(f.landmark_means())
+            self._n_posts = f.n_landmarks
+            if self._follower is not None and not mem.is_free_at(self._follower.points[1:]).all():
+                self._follower = None  # a new post blocks the path
+        self._since_plan += 1
+        self._mode_steps += 1
+        self._cooldown = max(self._cooldown - 1, 0)
+
+        if self._recovery > 0:
+            self._recovery -= 1
+            return self._recovery_action
+        if self._stuck.update(pose, self._last_speed):
+            return self._start_recovery()
+
+        # Close a loop when lost; stop when localised again. A loop closure that
+        # timed out is not retried for as long again.
+        if sigma < p.loop_close_std:
+            self._trigger = p.loop_close_std
+        if (
+            self._mode != LOCALISE
+            and not self._cooldown
+            and sigma > self._trigger
+            and f.n_landmarks
+        ):
+            self._set_mode(LOCALISE)
+        elif self._mode == LOCALISE and (
+            sigma < p.loop_close_done_std or self._mode_steps > p.loop_close_timeout
+        ):
+            self._give_up_localising(sigma)
+
+        if self._look_at is None and self._needs_plan(pose):
+            self._plan(pose)
+        return self._drive(pose)
+
+    def _sigma(self) -> float:
+        cov = self._base.filter.pose_cov
+        return math.sqrt(max(cov[0, 0] + cov[1, 1], 0.0))
+
+    def _give_up_localising(self, sigma: float) -> None:
+        """Back to exploring; if still lost, only try again once σ has grown further."""
+        p = self.params
+        if sigma >= p.loop_close_done_std:
+            self._cooldown = p.loop_close_timeout
+            self._trigger = max(p.loop_close_std, sigma + p.loop_close_step)
+        self._set_mode(EXPLORE)
+
+    def _set_mode(self, mode: str) -> None:
+        self._mode = mode
+        self._mode_steps = 0
+        self._follower = None
+        self._look_at = None
+        self._target_landmark = -1
+        self._tried.clear()
+
+    def _needs_plan(self, pose: np.ndarray) -> bool:
+        if self._follower is None or self._since_plan >= self.params.replan_interval:
+            return True
+        if self._mode == EXPLORE and self._gain_at(self._follower.goal) < self.params.min_gain:
+            return True
+        off_path, _ = self._follower.progress(pose)
+        return off_path > 1.0
+
+    def _unswept(self) -> np.ndarray:
+        return self._memory.coverage.unswept & ~self._abandoned
+
+    def _window(self, point: np.ndarray) -> tuple[slice, slice]:
+        """The coverage cells within ``gain_radius`` (a square) of ``point``."""
+        i, j = self._memory.coverage.grid.cell_of(point[0], point[1])
+        r = self._gain_cells
+        return slice(max(i - r, 0), i + r + 1), slice(max(j - r, 0), j + r + 1)
+
+    def _gain_at(self, point: np.ndarray) -> float:
+        """Unswept area (m²) around ``point``."""
+        res = self._memory.coverage.grid.resolution
+        return float(np.count_nonzero(self._unswept()[self._window(point)])) * res * res
+
+    def _unswept_centroid(self, point: np.ndarray) -> np.ndarray | None:
+        cg = self._memory.coverage.grid
+        rows, cols = self._window(point)
+        ii, jj = np.nonzero(self._unswept()[rows, cols])
+        if not len(ii):
+            return None
+        return np.array([cg.xs[jj + cols.start].mean(), cg.ys[ii + rows.start].mean()])
+
+    # ------------------------------------------------------------------ planning
+    def _plan(self, pose: np.ndarray) -> None:
+        mem = self._memory
+        self._since_plan = 0
+        start = mem.start_cell(pose)
+        dist, parent = dijkstra(
+            mem.free, [start], resolution=mem.grid.resolution, cell_cost=mem.cell_cost
+        )
+        goal = None
+        for _ in range(3):  # a mode may hand over to the next one
+            if self._mode == EXPLORE:
+                goal = self._frontier_goal(pose, dist)
+                if goal is None:
+                    self._set_mode(REFINE)
+                    continue
+            else:
+                goal = self._landmark_goal(dist)
+                if goal is None:
+                    if self._mode == LOCALISE:
+                        # No landmark left that would help: explore on for a while.
+                        self._give_up_localising(self._sigma())
+                        continue
+                    if self._tried:
+                        self._tried.clear()  # every landmark revisited: another round
+                        continue
+            break
+        if goal is None:
+            self._follower = None
+            return
+        if self._follower is not None and mem.grid.cell_of(*self._follower.goal) == goal:
+            return  # same goal: keep the path (and its progress)
+        cells = path_from_parents(parent, goal, mem.grid.nx)
+        points = mem.path_points(cells)
+        points[0] = pose[:2]
+        self._follower = PathFollower(points, self.params.lookahead, self._control)
+
+    def _frontier_goal(self, pose: np.ndarray, dist: np.ndarray) -> tuple[int, int] | None:
+        """The planning cell minimising path length − gain_weight·unswept area around it
+        + turn_weight·|bearing to it|, with hysteresis for the current goal."""
+        p = self.params
+        mem = self._memory
+        grid = mem.grid
+        unswept = self._unswept()
+        if not unswept.any():
+            return None
+        res = mem.coverage.grid.resolution
+        gain = mem.on_planning_grid(box_sum(unswept, self._gain_cells) * res * res)  # m²
+        ok = np.isfinite(dist) & (gain >= p.min_gain)
+        if not ok.any():
+            self._abandoned |= unswept  # what is left cannot be reached
+            return None
+        dx = grid.xs[None, :] - pose[0]
+        dy = grid.ys[:, None] - pose[1]
+        bearing = np.abs(np.arctan2(dy, dx) - pose[2])
+        bearing = np.minimum(bearing % (2.0 * math.pi), -bearing % (2.0 * math.pi))
+        score = np.where(ok, dist - p.gain_weight * gain + p.turn_weight * bearing, np.inf)
+        k = int(np.argmin(score))
+        best = divmod(k, grid.nx)
+        if self._follower is not None:
+            cur = grid.cell_of(*self._follower.goal)
+            if ok[cur] and score[cur] <= score[best] + p.switch_margin:
+                return cur
+        return best
+
+    def _landmark_goal(self, dist: np.ndarray) -> tuple[int, int] | None:
+        """A viewpoint of the landmark to (re)observe: localise picks a landmark known
+        much better than the pose, cheap to reach; refine the least-known one."""
+        p = self.params
+        mem = self._memory
+        f = self._base.filter
+        if not f.n_landmarks:
+            return None
+        means = f.landmark_means()
+        sig = np.sqrt(np.maximum(np.trace(f.landmark_covs(), axis1=1, axis2=2), 0.0))
+        ids = f.state_to_id
+        lo, hi = p.view_distance
+        grid = mem.grid
+        if self._mode == LOCALISE:
+            cov = f.pose_cov
+            limit = p.useful_ratio * math.sqrt(max(cov[0, 0] + cov[1, 1], 0.0))
+        else:
+            limit = math.inf
+        r = math.ceil(hi / grid.resolution)
+        best, best_score, best_cell = -1, math.inf, None
+        for k in range(len(ids)):
+            lid = int(ids[k])
+            if lid in self._tried or sig[k] > limit:
+                continue
+            mx, my = means[k]
+            ci, cj = grid.cell_of(mx, my)
+            i0, i1 = max(ci - r, 0), min(ci + r + 1, grid.ny)
+            j0, j1 = max(cj - r, 0), min(cj + r + 1, grid.nx)
+            dx = grid.xs[None, j0:j1] - mx
+            dy = grid.ys[i0:i1, None] - my
+            d2 = dx * dx + dy * dy
+            ring = (d2 >= lo * lo) & (d2 <= hi * hi)
+            cand = np.where(ring, dist[i0:i1, j0:j1], np.inf)
+            m = int(np.argmin(cand))
+            reach = float(cand.flat[m])
+            if not math.isfinite(reach) or (self._mode == LOCALISE and reach > p.max_detour):
+                continue
+            if self._mode == LOCALISE:
+                score = reach + p.uncertainty_weight * float(sig[k])
+            else:
+                score = reach - p.uncertainty_weight * float(sig[k])
+            if score < best_score:
+                a, b = divmod(m, j1 - j0)
+                best, best_score, best_cell = lid, score, (a + i0, b + j0)
+        if best_cell is None:
+            return None
+        self._target_landmark = best
+        return best_cell
+
+    # ------------------------------------------------------------------ control
+    def _drive(self, pose: np.ndarray) -> np.ndarray:
+        p = self.params
+        if self._follower is not None:
+            _, left = self._follower.progress(pose)
+            goal = self._follower.goal
+            if left > p.goal_tolerance and math.dist(pose[:2], goal) > p.goal_tolerance:
+                action = self._follower.action(pose)
+                return action
+            self._follower = None
+            self._on_arrival(pose, goal)
+        if self._look_at is not None:
+            dx, dy = self._look_at - pose[:2]
+            err = wrap_angle(math.atan2(dy, dx) - pose[2])
+            self._look_steps += 1
+            if abs(err) > p.look_tolerance and self._look_steps <= p.look_timeout:
+                return unicycle_control(pose, self._look_at, self._control, stop_distance=1e9)
+            self._done_looking()
+        # Nothing to follow right now: plan again on the next step.
+        self._since_plan = p.replan_interval
+        return np.zeros(2, dtype=np.float32)
+
+    def _on_arrival(self, pose: np.ndarray, goal: np.ndarray) -> None:
+        """At a goal: face what it was for (the unswept cells left around it, or the
+        landmark), unless already facing it."""
+        if self._mode == EXPLORE:
+            self._look_at = self._unswept_centroid(goal)
+        elif self._target_landmark >= 0:
+            self._look_at = self._base.filter.landmark(self._target_landmark)[0]
+        self._look_steps = 0
+
+    def _done_looking(self) -> None:
+        """Facing the look-at point: the goal is done."""
+        if self._mode == EXPLORE:
+            if self._gain_at(self._look_at) >= self.params.min_gain:
+                # Seen from its viewpoint and still unswept (occluded): stop chasing it.
+                self._abandoned[self._window(self._look_at)] = True
+        elif self._target_landmark >= 0:
+            self._tried.add(self._target_landmark)
+        self._look_at = None
+        self._since_plan = self.params.replan_interval
+
+    def _start_recovery(self) -> np.ndarray:
+        # Something unmapped (where the robot thinks it is) blocks the way: remember it.
+        pose = self._base.filter.pose
+        reach = self._base.config.robot.radius + 0.5 * self.params.bump_radius
+        ahead = pose[:2] + reach * np.array([math.cos(pose[2]), math.sin(pose[2])])
+        self._memory.add_bump(ahead, self.params.bump_radius + self._memory.inflation)
+        self._follower = None
+        self._look_at = None
+        self._recovery = self.params.recovery_steps - 1
+        turn = 0.6 if self.rng.random() < 0.5 else -0.6
+        self._recovery_action = np.array([-0.5, turn], dtype=np.float32)
+        self._since_plan = self.params.replan_interval
+        return self._recovery_action

@@ -1,0 +1,471 @@
+"""Greedy information-gain exploration on the EKF-SLAM belief."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+
+from agents.frontier import make_params
+from agents.navigation import (
+    EpisodeWatch,
+    ExplorationMemory,
+    StuckDetector,
+    belief_env,
+    box_sum,
+    dijkstra,
+    is_truthy,
+)
+from slam_env.ekf.models import MEASUREMENT_MODELS
+from slam_env.geometry import odometry_from_poses, velocity_from_poses, wrap_angle
+from slam_env.wrappers import ENTROPY_FLOOR, landmark_prior_variance
+
+#: (speed, turn) fractions of the default motion primitives: straight, gentle and
+#: tighter arcs each way, slow turns and turns on the spot. Turn rates stay at or below
+#: 0.6 of the maximum: the odometry noise grows with the square of each step's rotation.
+DEFAULT_PRIMITIVES: tuple[tuple[float, float], ...] = (
+    (1.0, 0.0),
+    (1.0, 0.25),
+    (1.0, -0.25),
+    (0.8, 0.6),
+    (0.8, -0.6),
+    (0.3, 0.6),
+    (0.3, -0.6),
+    (0.0, 0.6),
+    (0.0, -0.6),
+)
+
+
+@dataclass(frozen=True)
+class InfoGainParams:
+    """Parameters of :class:`InfoGainAgent` (units in the comments)."""
+
+    primitives: tuple[tuple[float, float], ...] = DEFAULT_PRIMITIVES  # (speed, turn) fractions
+    horizon: int = 6  # env steps a primitive is held in the prediction
+    observe_at: tuple[int, ...] = (3, 6)  # steps of the horizon at which observations are predicted
+    replan_interval: int = 1  # env steps between decisions (the chosen primitive is held)
+    planning_resolution: float = 0.25  # m, planning grid cell
+    coverage_resolution: float = 0.5  # m, coverage grid cell
+    safety_margin: float = 0.1  # m, inflation of the known map beyond the robot radius
+    soft_clearance: float = 0.8  # m, the frontier distance field keeps this far from obstacles
+    proximity_cost: float = 3.0  # extra cost factor of the distance field near obstacles
+    range_margin: float = 0.4  # m, observations and sweeps use max_range − this
+    fov_margin: float = math.radians(4.0)  # rad, and the FOV narrowed by this on each side
+    discovery_nats: float | None = None  # nats per landmark discovered; None: from the prior
+    frontier_weight: float = 2.0  # nats per m of progress toward the nearest frontier
+    gain_radius: float = 1.5  # m, half-side of the window a frontier cell's gain counts
+    min_gain: float = 1.0  # m², unswept area around a cell that makes it a frontier
+    field_interval: int = 5  # steps between recomputations of the frontier distance field
+    heading_lookahead: float = 1.0  # m, the field is read this far ahead of the end pose
+    give_up_radius: float = 2.5  # m, unswept cells this near the robot for too long ...
+    give_up_steps: int = 40  # ... (this many steps) are abandoned: out of sight
+    collision_penalty: float = 1000.0  # nats per predicted pose in collision
+    keep_bonus: float = 0.3  # nats for keeping the previous primitive (less dithering)
+    stuck_steps: int = 4  # steps of commanded motion without progress before backing off
+    recovery_steps: int = 5  # steps of backing off when stuck
+    bump_radius: float = 0.5  # m, disc blocked ahead of the robot when it gets stuck
+
+    def __post_init__(self) -> None:
+        prims = self.primitives
+        if not prims or any(len(p) != 2 for p in prims):
+            raise ValueError("InfoGainParams.primitives must be non-empty (speed, turn) pairs")
+        if any(not (math.isfinite(a) and -1.0 <= a <= 1.0) for p in prims for a in p):
+            raise ValueError("InfoGainParams.primitives must hold fractions in [-1, 1]")
+        for name in (
+            "horizon",
+            "replan_interval",
+            "field_interval",
+            "stuck_steps",
+            "give_up_steps",
+        ):
+            value = getattr(self, name)
+            if not isinstance(value, int) or value < 1:
+                raise ValueError(f"InfoGainParams.{name} must be an int >= 1, got {value!r}")
+        if not isinstance(self.recovery_steps, int) or self.recovery_steps < 1:
+            raise ValueError("InfoGainParams.recovery_steps must be an int >= 1")
+        if not self.observe_at or any(
+            not isinstance(k, int) or not 1 <= k <= self.horizon for k in self.observe_at
+        ):
+            raise ValueError(f"InfoGainParams.observe_at must be steps in [1, {self.horizon}]")
+        for name in (
+            "planning_resolution",
+            "coverage_resolution",
+            "gain_radius",
+            "bump_radius",
+            "give_up_radius",
+        ):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value > 0):
+                raise ValueError(f"InfoGainParams.{name} must be finite and > 0, got {value!r}")
+        for name in (
+            "safety_margin",
+            "soft_clearance",
+            "proximity_cost",
+            "range_margin",
+            "fov_margin",
+            "frontier_weight",
+            "min_gain",
+            "collision_penalty",
+            "keep_bonus",
+            "heading_lookahead",
+        ):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value >= 0):
+                raise ValueError(f"InfoGainParams.{name} must be finite and >= 0, got {value!r}")
+        if self.discovery_nats is not None and not (
+            math.isfinite(self.discovery_nats) and self.discovery_nats >= 0
+        ):
+            raise ValueError("InfoGainParams.discovery_nats must be None or finite and >= 0")
+
+
+class InfoGainAgent:
+    """Greedy expected-information-gain exploration (active SLAM, one-step lookahead).
+
+    Each decision scores a fixed set of motion primitives — (speed, turn) commands held
+    for ``horizon`` steps — from the filter's *estimated* pose, and executes the first
+    step of the best one (receding horizon). A primitive's score, in nats:
+
+    * **belief information**: on ``filter.copy()``, the EKF prediction with the
+      odometry the primitive would produce, then, at the ``observe_at`` steps, the
+      update with the expected observations of the known landmarks in range, FOV and
+      line of sight (zero innovation: only the covariance changes); the score is the
+      entropy removed, ½·(log det P_now − log det P_after). Turning costs heading
+      certainty and seeing well-known landmarks closes loops, both through this term;
+    * **discovery**: the coverage-grid area the sensor would sweep for the first time
+      (footprints at the observation steps) × the expected landmark density in the
+      unswept area × the nats a discovered landmark is worth;
+    * **frontier progress**: ``frontier_weight`` × the decrease of the path distance
+      (a Dijkstra field on the known map) to the nearest frontier — unswept area — so
+      that the agent heads somewhere useful when nothing is in view; once everything
+      is swept, the field leads to the least certain landmarks instead;
+    * **collision**: −``collision_penalty`` per predicted pose inside the known map's
+      obstacles or the estimated landmark posts, inflated by the robot radius and a
+      margin.
+
+    It reads only the belief (``env.unwrapped.filter``), the known map
+    (``raw_env.layout`` obstacles and walls) and the env's configuration; never the
+    true pose or landmark positions. ``seed`` seeds the agent's generator (used to
+    pick a direction when it backs off something it ran into).
+
+    Args:
+        env: a ``slam_env/ActiveSLAM-v0`` env (continuous actions).
+        seed: seed of the agent's random generator.
+        **params: overrides of :class:`InfoGainParams`.
+    """
+
+    def __init__(self, env: gym.Env, seed: int | None = None, **params: Any) -> None:
+        self._base = belief_env(env)
+        self.params: InfoGainParams = make_params(InfoGainParams, params)
+        self.rng = np.random.default_rng(seed)
+        cfg = self._base.config
+        self._dt = float(cfg.dt)
+        self._max_speed = float(cfg.robot.max_speed)
+        self._max_turn = float(cfg.robot.max_turn_rate)
+        self._range = max(float(cfg.sensor.max_range) - self.params.range_margin, 0.0)
+        fov = float(cfg.sensor.fov)
+        self._half_fov = math.pi if fov >= 2.0 * math.pi else 0.5 * fov - self.params.fov_margin
+        self._n_total = int(self._base.raw_env.n_landmarks)
+        self._prior_var = landmark_prior_variance(*self._base.raw_env.arena_size)
+        self._watch = EpisodeWatch()
+        self._memory: ExplorationMemory | None = None
+
+    # ------------------------------------------------------------------ interface
+    def predict(
+        self,
+        observation: Any,
+        state: Any = None,
+        episode_start: Any = None,
+        deterministic: bool = False,
+    ) -> tuple[np.ndarray, Any]:
+        """The next action, float32 (2,) in [−1, 1]; ``state`` is passed through."""
+        base = self._base
+        if is_truthy(episode_start) or self._memory is None or self._watch.is_new(base):
+            self.reset()
+        action = np.clip(self._act(), -1.0, 1.0).astype(np.float32)
+        self._last_speed = float(action[0])
+        self._watch.mark(base)
+        return action, state
+
+    def reset(self) -> None:
+        """Forget the episode: rebuild the maps from the current layout."""
+        base = self._base
+        p = self.params
+        self._memory = ExplorationMemory(
+            base.raw_env.layout,
+            base.config,
+            planning_resolution=p.planning_resolution,
+            coverage_resolution=p.coverage_resolution,
+            safety_margin=p.safety_margin,
+            soft_clearance=p.soft_clearance,
+            proximity_cost=p.proximity_cost,
+            range_margin=p.range_margin,
+            fov_margin=p.fov_margin,
+        )
+        cg = self._memory.coverage.grid
+        self._gain_cells = max(1, round(p.gain_radius / cg.resolution))
+        self._field: np.ndarray | None = None
+        self._since_field = 0
+        self._n_posts = -1
+        self._choice = -1
+        self._held = 0
+        self._recovery = 0
+        self._recovery_action = np.zeros(2, dtype=np.float32)
+        self._last_speed = 0.0
+        self._stuck = StuckDetector(p.stuck_steps, step_length=self._max_speed * self._dt)
+        self._last_scores: np.ndarray | None = None
+        self._watch.forget()
+
+    @property
+    def memory(self) -> ExplorationMemory | None:
+        """The episode's maps (planning grid, coverage)."""
+        return self._memory
+
+    @property
+    def last_scores(self) -> np.ndarray | None:
+        """(n_primitives, 4) the terms of the last decision: information, discovery,
+        frontier progress, collision (nats); None before the first decision."""
+        return None if self._last_scores is None else self._last_scores.copy()
+
+    # ------------------------------------------------------------------ decision
+    def _act(self) -> np.ndarray:
+        p = self.params
+        mem = self._memory
+        assert mem is not None
+        f = self._base.filter
+        pose = f.pose
+        mem.coverage.sweep(pose)
+        if mem.coverage.expose(pose, p.give_up_radius, p.give_up_steps):
+            self._field = None
+        if f.n_landmarks != self._n_posts:
+            mem.set_posts(f.landmark_means())
+            self._n_posts = f.n_landmarks
+        self._since_field += 1
+
+        if self._recovery > 0:
+            self._recovery -= 1
+            return self._recovery_action
+        if self._stuck.update(pose, self._last_speed):
+            return self._start_recovery(pose)
+
+        if self._choice >= 0 and self._held < p.replan_interval:
+            self._held += 1
+            return np.array(p.primitives[self._choice], dtype=np.float32)
+        if self._field is None or self._since_field >= p.field_interval:
+            self._field = self._distance_field(pose)
+            self._since_field = 0
+        scores = self._score(pose)
+        total = scores.sum(axis=1)
+        if self._choice >= 0:
+            total[self._choice] += p.keep_bonus
+        self._last_scores = scores
+        self._choice = int(np.argmax(total))
+        self._held = 1
+        return np.array(p.primitives[self._choice], dtype=np.float32)
+
+    def _start_recovery(self, pose: np.ndarray) -> np.ndarray:
+        """Ran into something unmapped (where the robot thinks it is): remember it
+        and back off, turning to a random side."""
+        p = self.params
+        mem = self._memory
+        reach = self._base.config.robot.radius + 0.5 * p.bump_radius
+        ahead = pose[:2] + reach * np.array([math.cos(pose[2]), math.sin(pose[2])])
+        mem.add_bump(ahead, p.bump_radius + mem.inflation)
+        self._field = None
+        self._choice = -1
+        self._recovery = p.recovery_steps - 1
+        turn = 0.6 if self.rng.random() < 0.5 else -0.6
+        self._recovery_action = np.array([-0.5, turn], dtype=np.float32)
+        return self._recovery_action
+
+    # ------------------------------------------------------------------ prediction
+    def _rollouts(self, pose: np.ndarray) -> np.ndarray:
+        """(n_primitives, horizon + 1, 3) the poses each primitive leads to (exact
+        unicycle arcs), starting with the current pose."""
+        p = self.params
+        prims = np.asarray(p.primitives, dtype=np.float64)
+        v = prims[:, 0] * self._max_speed  # m/s
+        w = prims[:, 1] * self._max_turn  # rad/s
+        t = np.arange(p.horizon + 1) * self._dt  # s
+        th = pose[2] + w[:, None] * t[None, :]
+        straight = np.abs(w) < 1e-9
+        w_safe = np.where(straight, 1.0, w)[:, None]
+        arc_x = (np.sin(th) - math.sin(pose[2])) / w_safe
+        arc_y = (math.cos(pose[2]) - np.cos(th)) / w_safe
+        line = t[None, :] * np.ones_like(w)[:, None]
+        dx = np.where(straight[:, None], line * math.cos(pose[2]), arc_x) * v[:, None]
+        dy = np.where(straight[:, None], line * math.sin(pose[2]), arc_y) * v[:, None]
+        out = np.empty((len(prims), p.horizon + 1, 3))
+        out[..., 0] = pose[0] + dx
+        out[..., 1] = pose[1] + dy
+        out[..., 2] = wrap_angle(th)
+        return out
+
+    def _score(self, pose: np.ndarray) -> np.ndarray:
+        """(n_primitives, 4) information, discovery, frontier and collision terms."""
+        p = self.params
+        mem = self._memory
+        f = self._base.filter
+        paths = self._rollouts(pose)
+        n = len(paths)
+        scores = np.zeros((n, 4))
+
+        # Collision: predicted positions in the inflated known map or a post, unless the
+        # robot already is there and the motion does not make it worse.
+        pts = paths[:, 1:, :2].reshape(-1, 2)
+        blocked = ~mem.is_free_at(pts).reshape(n, p.horizon)
+        if not mem.is_free_at(pose[None, :2])[0]:
+            clear_now = self._clearance(pose[None, :2])[0]
+            worse = self._clearance(pts).reshape(n, p.horizon) < clear_now
+            blocked &= worse
+        scores[:, 3] = -p.collision_penalty * blocked.sum(axis=1)
+        feasible = ~blocked.any(axis=1)
+
+        # Discovery: new area swept at the observation steps.
+        cov = mem.coverage
+        unswept = cov.unswept
+        area = cov.grid.resolution**2
+        density = max(self._n_total - f.n_landmarks, 0) / max(
+            float(np.count_nonzero(unswept)) * area, 1.0
+        )
+        value = density * self._discovery_nats(f) * area  # nats per new cell
+        # Frontier progress.
+        field = self._field
+        d_now = self._field_ahead(field, pose)
+
+        logdet_now = self._logdet(f.cov)
+        model = f.motion_model
+        means = f.landmark_means()
+        ids = f.state_to_id
+        h = MEASUREMENT_MODELS[f.measurement_model].h
+        for k in range(n):
+            if not feasible[k] and feasible.any():
+                continue  # a colliding primitive never wins: skip the costly terms
+            path = paths[k]
+            g = f.copy()
+            seen = np.zeros(cov.grid.shape, dtype=bool)
+            for step in range(1, p.horizon + 1):
+                p0, p1 = path[step - 1], path[step]
+                if model == "odometry":
+                    u = odometry_from_poses(p0, p1)
+                else:
+                    u = velocity_from_poses(p0, p1)
+                g.predict(np.asarray(u))
+                if step in p.observe_at:
+                    if len(ids):
+                        vis = self._visible(p1, means)
+                        if vis.any():
+                            g.update(h(p1, means[vis]), ids[vis])
+                    ii, jj = cov.footprint(p1)
+                    seen[ii, jj] = True
+            scores[k, 0] = 0.5 * (logdet_now - self._logdet(g.cov))
+            scores[k, 1] = value * float(np.count_nonzero(seen & unswept))
+            d_end = self._field_ahead(field, path[-1])
+            if math.isfinite(d_now) and math.isfinite(d_end):
+                scores[k, 2] = p.frontier_weight * (d_now - d_end)
+        scores[~feasible & feasible.any(), :3] = 0.0
+        return scores
+
+    def _visible(self, pose: np.ndarray, means: np.ndarray) -> np.ndarray:
+        """(n,) bool: known landmarks the sensor would see from ``pose``."""
+        dx = means[:, 0] - pose[0]
+        dy = means[:, 1] - pose[1]
+        r = np.hypot(dx, dy)
+        bearing = wrap_angle(np.arctan2(dy, dx) - pose[2])
+        vis = (r <= self._range) & (r > 1e-6) & (np.abs(bearing) <= self._half_fov)
+        if vis.any():
+            idx = np.flatnonzero(vis)
+            vis[idx] = self._memory.grid.line_of_sight(pose[:2], means[idx])
+        return vis
+
+    def _discovery_nats(self, f: Any) -> float:
+        """Entropy removed by discovering a landmark: its slot's prior (uniform over the
+        arena) against a new estimate about as uncertain as the robot's position."""
+        if self.params.discovery_nats is not None:
+            return self.params.discovery_nats
+        vx, vy = self._prior_var
+        pc = f.pose_cov
+        var = max(0.5 * (pc[0, 0] + pc[1, 1]), 0.0) + 0.05**2  # m², plus sensor noise
+        return 0.5 * (math.log(vx + ENTROPY_FLOOR) + math.log(vy + ENTROPY_FLOOR)) - math.log(
+            var + ENTROPY_FLOOR
+        )
+
+    @staticmethod
+    def _logdet(cov: np.ndarray) -> float:
+        d = cov.shape[0]
+        sign, value = np.linalg.slogdet(cov + ENTROPY_FLOOR * np.eye(d))
+        return float(value) if sign > 0 else -math.inf
+
+    def _clearance(self, points: np.ndarray) -> np.ndarray:
+        """(k,) clearance (m) of points to the known map, from the planning grid."""
+        grid = self._memory.grid
+        i, j = grid.cells_of(points)
+        return grid.clearance[i, j]
+
+    # ------------------------------------------------------------------ guidance
+    def _distance_field(self, pose: np.ndarray) -> np.ndarray:
+        """Path distance (m) to the nearest frontier cell (unswept area around it), or,
+        when everything is swept, to the viewpoints of the least certain landmarks."""
+        p = self.params
+        mem = self._memory
+        grid = mem.grid
+        unswept = mem.coverage.unswept
+        res = mem.coverage.grid.resolution
+        gain = mem.on_planning_grid(box_sum(unswept, self._gain_cells) * res * res)
+        sources = mem.free & (gain >= p.min_gain)
+        if not sources.any():
+            sources = self._landmark_viewpoints()
+        if not sources.any():
+            return np.full(grid.shape, np.inf)
+        ii, jj = np.nonzero(sources)
+        dist, _ = dijkstra(
+            mem.free,
+            zip(ii.tolist(), jj.tolist(), strict=True),
+            resolution=grid.resolution,
+            cell_cost=mem.cell_cost,
+        )
+        return dist
+
+    def _landmark_viewpoints(self) -> np.ndarray:
+        """Free cells 1–3 m from the three least certain landmarks."""
+        mem = self._memory
+        grid = mem.grid
+        f = self._base.filter
+        out = np.zeros(grid.shape, dtype=bool)
+        if not f.n_landmarks:
+            return out
+        sig = np.trace(f.landmark_covs(), axis1=1, axis2=2)
+        means = f.landmark_means()
+        for k in np.argsort(sig)[::-1][:3].tolist():
+            dx = grid.xs[None, :] - means[k, 0]
+            dy = grid.ys[:, None] - means[k, 1]
+            d2 = dx * dx + dy * dy
+            out |= (d2 >= 1.0) & (d2 <= 9.0)
+        return out & mem.free
+
+    def _field_ahead(self, field: np.ndarray | None, pose: np.ndarray) -> float:
+        """The field ``heading_lookahead`` ahead of ``pose`` (where the robot is
+        heading), or at the pose when that point is unreachable: turning toward the
+        frontier is progress too."""
+        ahead = pose[:2] + self.params.heading_lookahead * np.array(
+            [math.cos(pose[2]), math.sin(pose[2])]
+        )
+        value = self._field_at(field, ahead, search=0)
+        if math.isfinite(value):
+            return value
+        return self._field_at(field, pose[:2]) + self.params.heading_lookahead
+
+    def _field_at(self, field: np.ndarray | None, point: np.ndarray, search: int = 2) -> float:
+        """The field at ``point``, or at the nearest reached cell around it."""
+        if field is None:
+            return math.inf
+        grid = self._memory.grid
+        i, j = grid.cell_of(point[0], point[1])
+        value = field[i, j]
+        if math.isfinite(value):
+            return float(value)
+        window = field[max(i - search, 0) : i + search + 1, max(j - search, 0) : j + search + 1]
+        finite = window[np.isfinite(window)]
+        return float(finite.min()) + search * grid.resolution if finite.size else math.inf

@@ -1,0 +1,128 @@
+"""Agents by name, and the env they act on.
+
+An agent spec is a short string, as the command line takes it:
+
+| spec         | agent                                                              |
+|--------------|--------------------------------------------------------------------|
+| ``random``   | :class:`agents.base.RandomAgent`: uniform random actions            |
+| ``frontier`` | :class:`agents.frontier.FrontierAgent`: drives to the belief's frontier |
+| ``infogain`` | :class:`agents.infogain.InfoGainAgent`: greedy expected information gain |
+| ``ppo``      | the shipped PPO policy, ``agents/policies/ppo_active_slam.zip``      |
+| ``ppo:PATH`` | a PPO policy saved by ``slam-env train`` (a stable-baselines3 ``.zip``) |
+
+Heuristic agents are imported only when asked for, so that one agent's import cost
+(or absence) never affects another.
+"""
+
+from __future__ import annotations
+
+import importlib
+from pathlib import Path
+from typing import Any
+
+import gymnasium as gym
+
+from agents.base import Agent, RandomAgent
+
+#: The env every agent acts on; the ``module:`` prefix imports ``slam_env`` (which
+#: registers it) in a fresh process, such as a ``SubprocVecEnv`` worker.
+ENV_ID = "slam_env:slam_env/ActiveSLAM-v0"
+
+#: The PPO policy shipped with the package (written by the lead after training).
+SHIPPED_POLICY = Path(__file__).resolve().parent / "policies" / "ppo_active_slam.zip"
+
+# name -> (module, class): imported lazily by make_agent.
+_HEURISTICS: dict[str, tuple[str, str]] = {
+    "frontier": ("agents.frontier", "FrontierAgent"),
+    "infogain": ("agents.infogain", "InfoGainAgent"),
+}
+
+AGENT_NAMES = ("random", *_HEURISTICS, "ppo", "ppo:PATH")
+
+
+def make_env(
+    env_options: dict[str, Any] | None = None,
+    max_steps: int | None = None,
+    render_mode: str | None = None,
+) -> gym.Env:
+    """``gym.make`` the active-SLAM env with ``env_options`` (keyword options of
+    :class:`slam_env.active_slam.ActiveSLAMEnv`) and an optional episode length.
+
+    Raises ``ValueError`` naming the bad option (the env raises ``TypeError`` for
+    unknown options; a command line reports both the same way).
+    """
+    options = dict(env_options or {})
+    for reserved in ("render_mode", "max_episode_steps"):
+        if reserved in options:
+            raise ValueError(f"env option {reserved!r} is set by the caller, not in env_options")
+    kwargs: dict[str, Any] = {}
+    if max_steps is not None:
+        if isinstance(max_steps, bool) or not isinstance(max_steps, int) or max_steps < 1:
+            raise ValueError(f"max_steps must be an int >= 1, got {max_steps!r}")
+        kwargs["max_episode_steps"] = max_steps
+    try:
+        return gym.make(ENV_ID, render_mode=render_mode, **kwargs, **options)
+    except TypeError as exc:
+        raise ValueError(f"bad env options {options}: {exc}") from exc
+
+
+def agent_label(spec: str) -> str:
+    """A short display name: ``ppo:runs/x/model.zip`` → ``ppo:model``."""
+    spec = spec.strip()
+    if spec.startswith("ppo:"):
+        return f"ppo:{Path(spec[4:]).stem}"
+    return spec
+
+
+def parse_agent_specs(text: str) -> list[str]:
+    """Split a comma-separated list of specs; empty items and duplicates are errors."""
+    specs = [s.strip() for s in text.split(",")]
+    if not specs or any(not s for s in specs):
+        raise ValueError(f"empty agent spec in {text!r}; expected e.g. 'random,frontier'")
+    labels = [agent_label(s) for s in specs]
+    dupes = sorted({x for x in labels if labels.count(x) > 1})
+    if dupes:
+        raise ValueError(f"agent(s) given twice: {', '.join(dupes)}")
+    return specs
+
+
+def _import_heuristic(name: str) -> type:
+    module_name, class_name = _HEURISTICS[name]
+    try:
+        module = importlib.import_module(module_name)
+    except ModuleNotFoundError as exc:
+        if exc.name != module_name:
+            raise
+        raise ValueError(f"agent {name!r} is not available: {module_name} is missing") from exc
+    return getattr(module, class_name)
+
+
+def make_agent(spec: str, env: gym.Env, seed: int | None = None) -> Agent:
+    """The agent named by ``spec`` (see the module docstring), acting on ``env``.
+
+    ``seed`` seeds the agent's own randomness (random and heuristic agents).
+    Raises ``ValueError`` for an unknown spec, a PPO file that does not exist or a
+    policy whose spaces do not match ``env``'s.
+    """
+    if not isinstance(spec, str):
+        raise ValueError(f"agent spec must be a string, got {type(spec).__name__}")
+    spec = spec.strip()
+    if spec == "random":
+        return RandomAgent(env, seed=seed)
+    if spec in _HEURISTICS:
+        return _import_heuristic(spec)(env, seed=seed)
+    if spec == "ppo" or spec.startswith("ppo:"):
+        from agents.ppo import load_ppo_agent
+
+        if spec == "ppo":
+            if not SHIPPED_POLICY.is_file():
+                raise ValueError(
+                    f"agent 'ppo': no shipped policy at {SHIPPED_POLICY}; train one with "
+                    "'slam-env train' and pass it as 'ppo:PATH'"
+                )
+            return load_ppo_agent(SHIPPED_POLICY, env)
+        path = spec[4:].strip()
+        if not path:
+            raise ValueError("agent spec 'ppo:' needs a path, e.g. 'ppo:runs/ppo/model.zip'")
+        return load_ppo_agent(path, env)
+    raise ValueError(f"unknown agent {spec!r}; choose from {', '.join(AGENT_NAMES)}")

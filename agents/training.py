@@ -1,0 +1,409 @@
+"""PPO training on ``slam_env/ActiveSLAM-v0`` (egocentric belief observation).
+
+``train(config)`` runs stable-baselines3 PPO with parallel envs, a progress bar,
+TensorBoard logs, periodic checkpoints and periodic evaluation on a separately
+seeded env, and writes into ``config.out_dir``::
+
+    <model_name>.zip            the final policy (load it with ``ppo:PATH``)
+    <model_name>.yaml           the resolved config it was trained with
+    training_summary.json       steps, wall time, env steps/s, last/best evaluation
+    checkpoints/<model_name>_<N>_steps.zip
+    eval/best_model.zip, eval/evaluations.npz
+    tb/<model_name>_1/          TensorBoard logs (``tensorboard --logdir OUT/tb``)
+
+The config comes from a YAML file (``agents/configs/ppo_default.yaml`` holds every
+key with its default); unknown keys and wrong types are errors, never ignored.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+import time
+import warnings
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import gymnasium as gym
+import yaml
+
+from agents.registry import make_env
+
+DEFAULT_CONFIG_PATH = Path(__file__).resolve().parent / "configs" / "ppo_default.yaml"
+START_METHODS = (None, "fork", "forkserver", "spawn")
+ACTIVATIONS = ("tanh", "relu")
+
+
+class ConfigError(ValueError):
+    """A training config that cannot be used (unknown key, wrong type, bad value)."""
+
+
+# ---------------------------------------------------------------------- config
+@dataclass
+class PPOParams:
+    """stable-baselines3 PPO hyperparameters (see ``stable_baselines3.PPO``)."""
+
+    learning_rate: float = 3.0e-4
+    n_steps: int = 1024  # rollout length per env
+    batch_size: int = 256
+    n_epochs: int = 10
+    gamma: float = 0.99
+    gae_lambda: float = 0.95
+    clip_range: float = 0.2
+    ent_coef: float = 0.0
+    vf_coef: float = 0.5
+    max_grad_norm: float = 0.5
+    target_kl: float | None = None
+    normalize_advantage: bool = True
+    net_arch: list[int] = field(default_factory=lambda: [256, 256])  # pi and vf MLPs
+    activation: str = "tanh"
+
+
+@dataclass
+class TrainConfig:
+    """Everything ``train`` needs. Frequencies count env steps (all envs together)."""
+
+    total_timesteps: int = 1_000_000
+    n_envs: int = 2  # SubprocVecEnv workers; 1 runs in-process (DummyVecEnv)
+    seed: int = 0
+    env_options: dict[str, Any] = field(default_factory=dict)  # ActiveSLAMEnv options
+    max_episode_steps: int | None = None  # None: the registered 500
+    torch_threads: int = 1  # torch.set_num_threads per process
+    start_method: str | None = None  # SubprocVecEnv start method; None: SB3's default
+    progress_bar: bool = True
+    tensorboard: bool = True
+    out_dir: str = "runs/ppo"
+    model_name: str = "ppo_active_slam"
+    checkpoint_freq: int = 100_000  # 0: no checkpoints
+    eval_freq: int = 50_000  # 0: no periodic evaluation
+    eval_episodes: int = 5
+    eval_seed: int = 1_000_000  # the eval env's worlds: the same at every evaluation
+    verbose: int = 0  # SB3 verbosity
+    ppo: PPOParams = field(default_factory=PPOParams)
+
+
+def _is_int(v: Any) -> bool:
+    return isinstance(v, int) and not isinstance(v, bool)
+
+
+def _is_number(v: Any) -> bool:
+    return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+
+
+def _check(ok: bool, name: str, value: Any, expected: str) -> None:
+    if not ok:
+        raise ConfigError(f"config key {name!r} must be {expected}, got {value!r}")
+
+
+def _validate_ppo(p: PPOParams) -> None:
+    for name in ("learning_rate", "clip_range", "max_grad_norm"):
+        v = getattr(p, name)
+        _check(_is_number(v) and v > 0, f"ppo.{name}", v, "a number > 0")
+    for name in ("gamma", "gae_lambda"):
+        v = getattr(p, name)
+        _check(_is_number(v) and 0 < v <= 1, f"ppo.{name}", v, "a number in (0, 1]")
+    for name in ("ent_coef", "vf_coef"):
+        v = getattr(p, name)
+        _check(_is_number(v) and v >= 0, f"ppo.{name}", v, "a number >= 0")
+    _check(_is_int(p.n_steps) and p.n_steps >= 2, "ppo.n_steps", p.n_steps, "an int >= 2")
+    _check(
+        _is_int(p.batch_size) and p.batch_size >= 2, "ppo.batch_size", p.batch_size, "an int >= 2"
+    )
+    _check(_is_int(p.n_epochs) and p.n_epochs >= 1, "ppo.n_epochs", p.n_epochs, "an int >= 1")
+    _check(
+        p.target_kl is None or (_is_number(p.target_kl) and p.target_kl > 0),
+        "ppo.target_kl",
+        p.target_kl,
+        "null or a number > 0",
+    )
+    _check(
+        isinstance(p.normalize_advantage, bool),
+        "ppo.normalize_advantage",
+        p.normalize_advantage,
+        "true or false",
+    )
+    _check(
+        isinstance(p.net_arch, list)
+        and len(p.net_arch) >= 1
+        and all(_is_int(n) and n >= 1 for n in p.net_arch),
+        "ppo.net_arch",
+        p.net_arch,
+        "a non-empty list of layer sizes",
+    )
+    _check(p.activation in ACTIVATIONS, "ppo.activation", p.activation, f"one of {ACTIVATIONS}")
+
+
+def validate_config(cfg: TrainConfig) -> TrainConfig:
+    """Check every field's type and range; raise :class:`ConfigError` naming the key."""
+    for name in ("total_timesteps", "n_envs", "torch_threads", "eval_episodes"):
+        v = getattr(cfg, name)
+        _check(_is_int(v) and v >= 1, name, v, "an int >= 1")
+    for name in ("seed", "eval_seed", "checkpoint_freq", "eval_freq", "verbose"):
+        v = getattr(cfg, name)
+        _check(_is_int(v) and v >= 0, name, v, "an int >= 0")
+    _check(isinstance(cfg.env_options, dict), "env_options", cfg.env_options, "a mapping")
+    _check(
+        cfg.max_episode_steps is None
+        or (_is_int(cfg.max_episode_steps) and cfg.max_episode_steps >= 1),
+        "max_episode_steps",
+        cfg.max_episode_steps,
+        "null or an int >= 1",
+    )
+    _check(cfg.start_method in START_METHODS, "start_method", cfg.start_method, str(START_METHODS))
+    for name in ("progress_bar", "tensorboard"):
+        v = getattr(cfg, name)
+        _check(isinstance(v, bool), name, v, "true or false")
+    _check(isinstance(cfg.out_dir, str) and cfg.out_dir != "", "out_dir", cfg.out_dir, "a path")
+    _check(
+        isinstance(cfg.model_name, str) and cfg.model_name != "" and "/" not in cfg.model_name,
+        "model_name",
+        cfg.model_name,
+        "a file name without '/'",
+    )
+    _check(isinstance(cfg.ppo, PPOParams), "ppo", cfg.ppo, "a mapping of PPO hyperparameters")
+    _validate_ppo(cfg.ppo)
+    return cfg
+
+
+def _from_mapping(cls: type, data: Mapping[str, Any], where: str) -> dict[str, Any]:
+    valid = {f.name for f in dataclasses.fields(cls)}
+    unknown = sorted(set(data) - valid)
+    if unknown:
+        raise ConfigError(
+            f"unknown {where} key(s) {unknown}; valid keys: {', '.join(sorted(valid))}"
+        )
+    return dict(data)
+
+
+def config_from_dict(data: Mapping[str, Any] | None) -> TrainConfig:
+    """A validated :class:`TrainConfig` from a (possibly partial) nested mapping."""
+    if data is None:
+        data = {}
+    if not isinstance(data, Mapping):
+        raise ConfigError(f"a training config must be a mapping, got {type(data).__name__}")
+    top = _from_mapping(TrainConfig, data, "config")
+    ppo = top.pop("ppo", None) or {}
+    if not isinstance(ppo, Mapping):
+        raise ConfigError(f"config key 'ppo' must be a mapping, got {ppo!r}")
+    params = PPOParams(**_from_mapping(PPOParams, ppo, "ppo"))
+    if top.get("env_options") is None:
+        top.pop("env_options", None)
+    return validate_config(TrainConfig(**top, ppo=params))
+
+
+def load_config(path: str | Path | None = None, **overrides: Any) -> TrainConfig:
+    """Read a YAML config (default: ``ppo_default.yaml``) and apply top-level
+    ``overrides`` (``None`` values are ignored, as from unset CLI flags)."""
+    path = DEFAULT_CONFIG_PATH if path is None else Path(path)
+    if not path.is_file():
+        raise ConfigError(f"config file not found: {path}")
+    try:
+        with open(path, encoding="utf-8") as fh:
+            data = yaml.safe_load(fh)
+    except yaml.YAMLError as exc:
+        raise ConfigError(f"{path} is not valid YAML: {exc}") from exc
+    if data is None:
+        data = {}
+    if not isinstance(data, dict):
+        raise ConfigError(f"{path}: a training config must be a mapping at the top level")
+    data.update({k: v for k, v in overrides.items() if v is not None})
+    return config_from_dict(data)
+
+
+def config_to_dict(cfg: TrainConfig) -> dict[str, Any]:
+    return dataclasses.asdict(cfg)
+
+
+# ---------------------------------------------------------------------- envs
+@dataclass(frozen=True)
+class EnvFactory:
+    """A picklable env constructor for ``SubprocVecEnv`` workers (fresh processes)."""
+
+    env_options: dict[str, Any]
+    max_steps: int | None = None
+    torch_threads: int | None = None
+
+    def __call__(self) -> gym.Env:
+        if self.torch_threads is not None:
+            import torch
+
+            torch.set_num_threads(self.torch_threads)
+        return make_env(self.env_options, self.max_steps)
+
+
+def _check_env(cfg: TrainConfig) -> None:
+    """Fail here, with the env's message, rather than in a worker process."""
+    env = make_env(cfg.env_options, cfg.max_episode_steps)
+    try:
+        env.reset(seed=cfg.seed)  # e.g. a random world that cannot be laid out
+        space = env.observation_space
+        if not isinstance(space, gym.spaces.Box):
+            raise ConfigError(
+                "PPO trains on the flat egocentric belief: drop env_options.observation "
+                f"(got observation space {type(space).__name__})"
+            )
+    finally:
+        env.close()
+
+
+def _make_callbacks(cfg: TrainConfig, out: Path, eval_env: Any) -> list[Any]:
+    from stable_baselines3.common.callbacks import CheckpointCallback, EvalCallback
+
+    class SeededEvalCallback(EvalCallback):
+        """Evaluates on the same ``eval_seed`` worlds every time, so that successive
+        evaluations (and the best model) compare like with like."""
+
+        def _init_callback(self) -> None:
+            with warnings.catch_warnings():
+                # Subproc training env vs in-process eval env is intended.
+                warnings.filterwarnings("ignore", message="Training and eval env are not")
+                super()._init_callback()
+
+        def _on_step(self) -> bool:
+            if self.eval_freq > 0 and self.n_calls % self.eval_freq == 0:
+                self.eval_env.seed(cfg.eval_seed)
+            return super()._on_step()
+
+    callbacks: list[Any] = []
+    if cfg.checkpoint_freq > 0:
+        callbacks.append(
+            CheckpointCallback(
+                save_freq=max(cfg.checkpoint_freq // cfg.n_envs, 1),
+                save_path=str(out / "checkpoints"),
+                name_prefix=cfg.model_name,
+            )
+        )
+    if cfg.eval_freq > 0:
+        callbacks.append(
+            SeededEvalCallback(
+                eval_env,
+                n_eval_episodes=cfg.eval_episodes,
+                eval_freq=max(cfg.eval_freq // cfg.n_envs, 1),
+                log_path=str(out / "eval"),
+                best_model_save_path=str(out / "eval"),
+                deterministic=True,
+                verbose=cfg.verbose,
+            )
+        )
+    return callbacks
+
+
+def _write_yaml(cfg: TrainConfig, path: Path) -> None:
+    header = (
+        "# Resolved training config of the policy next to this file "
+        "(slam-env train --config THIS_FILE reproduces it).\n"
+    )
+    path.write_text(header + yaml.safe_dump(config_to_dict(cfg), sort_keys=False))
+
+
+# ---------------------------------------------------------------------- train
+def train(config: TrainConfig | Mapping[str, Any] | str | Path | None = None) -> Path:
+    """Train PPO as ``config`` says (a :class:`TrainConfig`, a mapping, a YAML path,
+    or ``None`` for the defaults) and return the path of the saved ``.zip``."""
+    import torch
+    from stable_baselines3 import PPO
+    from stable_baselines3.common.env_util import make_vec_env
+    from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv
+
+    if isinstance(config, TrainConfig):
+        cfg = validate_config(config)
+    elif isinstance(config, Mapping):
+        cfg = config_from_dict(config)
+    else:
+        cfg = load_config(config)
+
+    torch.set_num_threads(cfg.torch_threads)
+    _check_env(cfg)
+    out = Path(cfg.out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    model_path = out / f"{cfg.model_name}.zip"
+    _write_yaml(cfg, out / f"{cfg.model_name}.yaml")
+
+    factory = EnvFactory(dict(cfg.env_options), cfg.max_episode_steps, cfg.torch_threads)
+    if cfg.n_envs == 1:
+        vec_cls, vec_kwargs = DummyVecEnv, None
+    else:
+        vec_cls, vec_kwargs = SubprocVecEnv, {"start_method": cfg.start_method}
+    train_env = make_vec_env(
+        factory, n_envs=cfg.n_envs, seed=cfg.seed, vec_env_cls=vec_cls, vec_env_kwargs=vec_kwargs
+    )
+    eval_env = None
+    interrupted = False
+    try:
+        if cfg.eval_freq > 0:
+            eval_env = make_vec_env(factory, n_envs=1, seed=cfg.eval_seed)
+        p = cfg.ppo
+        activation = {"tanh": torch.nn.Tanh, "relu": torch.nn.ReLU}[p.activation]
+        model = PPO(
+            "MlpPolicy",
+            train_env,
+            learning_rate=p.learning_rate,
+            n_steps=p.n_steps,
+            batch_size=p.batch_size,
+            n_epochs=p.n_epochs,
+            gamma=p.gamma,
+            gae_lambda=p.gae_lambda,
+            clip_range=p.clip_range,
+            ent_coef=p.ent_coef,
+            vf_coef=p.vf_coef,
+            max_grad_norm=p.max_grad_norm,
+            target_kl=p.target_kl,
+            normalize_advantage=p.normalize_advantage,
+            policy_kwargs={
+                "net_arch": {"pi": list(p.net_arch), "vf": list(p.net_arch)},
+                "activation_fn": activation,
+            },
+            tensorboard_log=str(out / "tb") if cfg.tensorboard else None,
+            seed=cfg.seed,
+            device="cpu",
+            verbose=cfg.verbose,
+        )
+        callbacks = _make_callbacks(cfg, out, eval_env)
+        start = time.perf_counter()
+        try:
+            model.learn(
+                total_timesteps=cfg.total_timesteps,
+                callback=callbacks,
+                progress_bar=cfg.progress_bar,
+                tb_log_name=cfg.model_name,
+            )
+        except KeyboardInterrupt:
+            interrupted = True  # keep what was learnt so far
+        wall = time.perf_counter() - start
+        model.save(model_path)
+        evals = [c for c in callbacks if hasattr(c, "best_mean_reward")]
+        summary = {
+            "model": str(model_path),
+            "timesteps": int(model.num_timesteps),
+            "wall_time_s": round(wall, 3),
+            "env_steps_per_s": round(model.num_timesteps / wall, 1) if wall > 0 else None,
+            "n_envs": cfg.n_envs,
+            "interrupted": interrupted,
+            "last_eval_mean_reward": _finite(evals[0].last_mean_reward) if evals else None,
+            "best_eval_mean_reward": _finite(evals[0].best_mean_reward) if evals else None,
+        }
+        (out / "training_summary.json").write_text(json.dumps(summary, indent=2) + "\n")
+        if interrupted:
+            raise KeyboardInterrupt(f"training interrupted; model saved to {model_path}")
+    finally:
+        _close(train_env, quietly=interrupted)
+        if eval_env is not None:
+            _close(eval_env, quietly=interrupted)
+    return model_path
+
+
+def _close(vec_env: Any, quietly: bool) -> None:
+    """Close a VecEnv; after Ctrl-C its workers may already be gone (they get the
+    SIGINT too), which must not hide the interruption."""
+    try:
+        vec_env.close()
+    except (EOFError, BrokenPipeError, ConnectionResetError):
+        if not quietly:
+            raise
+
+
+def _finite(x: float) -> float | None:
+    return float(x) if math.isfinite(x) else None

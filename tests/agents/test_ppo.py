@@ -1,0 +1,195 @@
+"""PPO: training config, a tiny learn/save/load round trip, the agent and its checks."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+
+import gymnasium as gym
+import numpy as np
+import pytest
+import yaml
+
+from agents.evaluation import evaluate
+from agents.ppo import PPOAgent, load_ppo_agent
+from agents.registry import make_agent, make_env
+from agents.training import (
+    DEFAULT_CONFIG_PATH,
+    ConfigError,
+    PPOParams,
+    TrainConfig,
+    config_from_dict,
+    load_config,
+    train,
+)
+
+SMALL_WORLD = {"n_landmarks": 5, "width": 8.0, "height": 8.0, "n_obstacles": 1}
+
+
+def tiny_config(out_dir, **overrides):
+    cfg = {
+        "total_timesteps": 128,
+        "n_envs": 1,
+        "seed": 1,
+        "env_options": SMALL_WORLD,
+        "max_episode_steps": 40,
+        "progress_bar": False,
+        "checkpoint_freq": 64,
+        "eval_freq": 64,
+        "eval_episodes": 1,
+        "out_dir": str(out_dir),
+        "ppo": {"n_steps": 64, "batch_size": 32, "n_epochs": 1, "net_arch": [16]},
+    }
+    cfg.update(overrides)
+    return cfg
+
+
+@pytest.fixture(scope="module")
+def trained(tmp_path_factory):
+    out = tmp_path_factory.mktemp("ppo")
+    path = train(tiny_config(out))
+    return out, path
+
+
+# ---------------------------------------------------------------------- config
+def test_default_yaml_lists_every_key_with_its_default():
+    data = yaml.safe_load(DEFAULT_CONFIG_PATH.read_text())
+    assert set(data) == {f.name for f in dataclasses.fields(TrainConfig)}
+    assert set(data["ppo"]) == {f.name for f in dataclasses.fields(PPOParams)}
+    assert load_config() == TrainConfig()
+
+
+def test_load_config_applies_overrides(tmp_path):
+    file = tmp_path / "c.yaml"
+    file.write_text("n_envs: 4\nppo: {n_steps: 128}\n")
+    cfg = load_config(file, seed=7, n_envs=None)  # None: a CLI flag left unset
+    assert (cfg.n_envs, cfg.seed, cfg.ppo.n_steps) == (4, 7, 128)
+    assert cfg.ppo.batch_size == PPOParams().batch_size  # defaults fill the rest
+
+
+@pytest.mark.parametrize(
+    ("data", "match"),
+    [
+        ({"n_env": 2}, r"unknown config key\(s\) \['n_env'\]"),
+        ({"ppo": {"learning_rat": 0.1}}, r"unknown ppo key\(s\) \['learning_rat'\]"),
+        ({"n_envs": "two"}, "'n_envs' must be an int >= 1"),
+        ({"n_envs": True}, "'n_envs' must be an int"),
+        ({"total_timesteps": 0}, "'total_timesteps'"),
+        ({"ppo": {"gamma": 1.5}}, "'ppo.gamma'"),
+        ({"ppo": {"net_arch": []}}, "'ppo.net_arch'"),
+        ({"ppo": {"activation": "gelu"}}, "'ppo.activation'"),
+        ({"start_method": "thread"}, "'start_method'"),
+        ({"ppo": [1, 2]}, "'ppo' must be a mapping"),
+        ([1, 2], "must be a mapping"),
+    ],
+)
+def test_config_errors_name_the_key(data, match):
+    with pytest.raises(ConfigError, match=match):
+        config_from_dict(data)
+
+
+def test_train_rejects_a_non_flat_observation(tmp_path):
+    with pytest.raises(ConfigError, match="egocentric"):
+        train(tiny_config(tmp_path, env_options={**SMALL_WORLD, "observation": "full"}))
+    with pytest.raises(ValueError, match="n_landmark"):
+        train(tiny_config(tmp_path, env_options={"n_landmark": 5}))
+    # A random world that cannot be laid out fails here, not in a worker process.
+    with pytest.raises(ValueError, match="could not place obstacle"):
+        train(tiny_config(tmp_path, env_options={"width": 8.0, "height": 8.0}))
+    assert not (tmp_path / "ppo_active_slam.zip").exists()
+
+
+# ---------------------------------------------------------------------- train, save, load
+def test_train_writes_model_config_checkpoints_evaluations_and_logs(trained):
+    out, path = trained
+    assert path == out / "ppo_active_slam.zip" and path.is_file()
+    saved = load_config(out / "ppo_active_slam.yaml")
+    assert saved == config_from_dict(tiny_config(out))  # the resolved config, reloadable
+    assert sorted(p.name for p in (out / "checkpoints").iterdir()) == [
+        "ppo_active_slam_128_steps.zip",
+        "ppo_active_slam_64_steps.zip",
+    ]
+    evals = np.load(out / "eval" / "evaluations.npz")
+    assert list(evals["timesteps"]) == [64, 128]
+    assert (out / "eval" / "best_model.zip").is_file()
+    assert any((out / "tb").rglob("events.out.tfevents.*"))
+    summary = json.loads((out / "training_summary.json").read_text())
+    assert summary["timesteps"] == 128 and summary["env_steps_per_s"] > 0
+
+
+def test_ppo_agent_loads_and_acts_deterministically(trained):
+    _, path = trained
+    env = make_env(SMALL_WORLD, 40)
+    agent = make_agent(f"ppo:{path}", env)
+    assert isinstance(agent, PPOAgent)
+    obs, _ = env.reset(seed=0)
+    a1, _ = agent.predict(obs)
+    a2, _ = agent.predict(obs)
+    assert env.action_space.contains(a1)
+    np.testing.assert_array_equal(a1, a2)  # deterministic by default
+    expected, _ = agent.model.predict(obs, deterministic=True)
+    np.testing.assert_array_equal(a1, expected)
+    samples = {tuple(agent.predict(obs, deterministic=False)[0]) for _ in range(5)}
+    assert len(samples) > 1  # stochastic when asked
+    assert agent.config["env_options"] == SMALL_WORLD  # the YAML next to the model
+    # SB3's convention: the .zip suffix may be left off.
+    assert load_ppo_agent(path.with_suffix("")).path == path
+    env.close()
+
+
+def test_ppo_agent_refuses_an_env_with_other_spaces(trained):
+    _, path = trained
+    env = make_env({**SMALL_WORLD, "n_landmarks": 7})
+    with pytest.raises(
+        ValueError, match=r"observation space Box\(shape=\(27,\).* != env.s Box\(shape=\(35,\)"
+    ):
+        make_agent(f"ppo:{path}", env)
+    env.close()
+    env = make_env({**SMALL_WORLD, "action_type": "discrete"})
+    with pytest.raises(ValueError, match="action space"):
+        load_ppo_agent(path, env)
+    env.close()
+
+
+def test_ppo_bad_files(tmp_path):
+    env = gym.make("slam_env/ActiveSLAM-v0", **SMALL_WORLD)
+    with pytest.raises(ValueError, match="not found"):
+        make_agent(f"ppo:{tmp_path / 'missing.zip'}", env)
+    junk = tmp_path / "junk.zip"
+    junk.write_bytes(b"not a zip at all")
+    with pytest.raises(ValueError, match="not a stable-baselines3 PPO model"):
+        make_agent(f"ppo:{junk}", env)
+    with pytest.raises(ValueError, match="needs a path"):
+        make_agent("ppo:", env)
+    env.close()
+
+
+def test_evaluate_round_trip_with_a_trained_policy(trained, tmp_path):
+    _, path = trained
+    result = evaluate(
+        ["random", f"ppo:{path}"],
+        episodes=2,
+        seed=0,
+        env_options=SMALL_WORLD,
+        out_dir=tmp_path,
+        max_steps=20,
+        progress=False,
+        verbose=False,
+    )
+    assert [r["agent"] for r in result.summary] == ["random", "ppo:ppo_active_slam"]
+    ppo_rows = [r for r in result.episodes if r["spec"] == f"ppo:{path}"]
+    assert [r["seed"] for r in ppo_rows] == [0, 1]
+    assert all(r["steps"] == 20 for r in ppo_rows)
+    assert (tmp_path / "summary.csv").is_file()
+
+
+def test_demo_runs_a_policy_on_the_world_it_was_trained_on(trained, tmp_path):
+    from agents.demo import demo
+
+    _, path = trained
+    # No env options given: the demo takes them from the YAML next to the policy
+    # (the default world would not fit this small-world policy).
+    result = demo(f"ppo:{path}", seed=1, out_dir=tmp_path, gif=False, verbose=False)
+    assert result.metrics["steps"] == 40  # the trained max_episode_steps
+    saved = json.loads((tmp_path / "demo_metrics.json").read_text())
+    assert saved["env_options"] == SMALL_WORLD
