@@ -11,13 +11,16 @@ import numpy as np
 
 from agents.frontier import make_params
 from agents.navigation import (
+    ControllerParams,
     EpisodeWatch,
     ExplorationMemory,
+    PathFollower,
     StuckDetector,
     belief_env,
     box_sum,
     dijkstra,
     is_truthy,
+    nearest_passable,
 )
 from slam_env.ekf.models import MEASUREMENT_MODELS
 from slam_env.geometry import odometry_from_poses, velocity_from_poses, wrap_angle
@@ -46,7 +49,7 @@ class InfoGainParams:
     primitives: tuple[tuple[float, float], ...] = DEFAULT_PRIMITIVES  # (speed, turn) fractions
     horizon: int = 6  # env steps a primitive is held in the prediction
     observe_at: tuple[int, ...] = (3, 6)  # steps of the horizon at which observations are predicted
-    replan_interval: int = 1  # env steps between decisions (the chosen primitive is held)
+    replan_interval: int = 2  # env steps between decisions (the chosen primitive is held)
     planning_resolution: float = 0.25  # m, planning grid cell
     coverage_resolution: float = 0.5  # m, coverage grid cell
     safety_margin: float = 0.1  # m, inflation of the known map beyond the robot radius
@@ -55,15 +58,19 @@ class InfoGainParams:
     range_margin: float = 0.4  # m, observations and sweeps use max_range − this
     fov_margin: float = math.radians(4.0)  # rad, and the FOV narrowed by this on each side
     discovery_nats: float | None = None  # nats per landmark discovered; None: from the prior
-    frontier_weight: float = 2.0  # nats per m of progress toward the nearest frontier
+    frontier_weight: float = 4.0  # nats per m of progress toward the nearest frontier
     gain_radius: float = 1.5  # m, half-side of the window a frontier cell's gain counts
     min_gain: float = 1.0  # m², unswept area around a cell that makes it a frontier
-    field_interval: int = 5  # steps between recomputations of the frontier distance field
-    heading_lookahead: float = 1.0  # m, the field is read this far ahead of the end pose
+    field_interval: int = 8  # steps between recomputations of the frontier distance field
+    heading_lookahead: float = 0.5  # m, facing the frontier counts as this much nearer
     give_up_radius: float = 2.5  # m, unswept cells this near the robot for too long ...
     give_up_steps: int = 40  # ... (this many steps) are abandoned: out of sight
     collision_penalty: float = 1000.0  # nats per predicted pose in collision
     keep_bonus: float = 0.3  # nats for keeping the previous primitive (less dithering)
+    reversal_penalty: float = 2.0  # nats for reversing the previous turn direction on the spot
+    guide_length: float = 4.0  # m of frontier-field descent the guided candidate follows
+    lookahead: float = 0.6  # m, pure-pursuit look-ahead of the guided candidate
+    turn_limit: float = 0.6  # fraction of the max turn rate the guided candidate uses
     stuck_steps: int = 4  # steps of commanded motion without progress before backing off
     recovery_steps: int = 5  # steps of backing off when stuck
     bump_radius: float = 0.5  # m, disc blocked ahead of the robot when it gets stuck
@@ -96,6 +103,9 @@ class InfoGainParams:
             "gain_radius",
             "bump_radius",
             "give_up_radius",
+            "guide_length",
+            "lookahead",
+            "turn_limit",
         ):
             value = getattr(self, name)
             if not (math.isfinite(value) and value > 0):
@@ -110,6 +120,7 @@ class InfoGainParams:
             "min_gain",
             "collision_penalty",
             "keep_bonus",
+            "reversal_penalty",
             "heading_lookahead",
         ):
             value = getattr(self, name)
@@ -168,6 +179,12 @@ class InfoGainAgent:
         fov = float(cfg.sensor.fov)
         self._half_fov = math.pi if fov >= 2.0 * math.pi else 0.5 * fov - self.params.fov_margin
         self._n_total = int(self._base.raw_env.n_landmarks)
+        self._control = ControllerParams(
+            max_speed=self._max_speed,
+            max_turn_rate=self._max_turn,
+            dt=self._dt,
+            turn_limit=self.params.turn_limit,
+        )
         self._prior_var = landmark_prior_variance(*self._base.raw_env.arena_size)
         self._watch = EpisodeWatch()
         self._memory: ExplorationMemory | None = None
@@ -186,6 +203,7 @@ class InfoGainAgent:
             self.reset()
         action = np.clip(self._act(), -1.0, 1.0).astype(np.float32)
         self._last_speed = float(action[0])
+        self._last_turn = float(action[1]) if abs(action[0]) < 0.5 else 0.0
         self._watch.mark(base)
         return action, state
 
@@ -210,10 +228,12 @@ class InfoGainAgent:
         self._since_field = 0
         self._n_posts = -1
         self._choice = -1
+        self._follower: PathFollower | None = None
         self._held = 0
         self._recovery = 0
         self._recovery_action = np.zeros(2, dtype=np.float32)
         self._last_speed = 0.0
+        self._last_turn = 0.0
         self._stuck = StuckDetector(p.stuck_steps, step_length=self._max_speed * self._dt)
         self._last_scores: np.ndarray | None = None
         self._watch.forget()
@@ -252,18 +272,31 @@ class InfoGainAgent:
 
         if self._choice >= 0 and self._held < p.replan_interval:
             self._held += 1
-            return np.array(p.primitives[self._choice], dtype=np.float32)
+            return self._command(pose)
         if self._field is None or self._since_field >= p.field_interval:
             self._field = self._distance_field(pose)
             self._since_field = 0
-        scores = self._score(pose)
+        paths, actions, follower = self._candidates(pose)
+        scores = self._score(pose, paths)
         total = scores.sum(axis=1)
-        if self._choice >= 0:
+        if 0 <= self._choice < len(total):
             total[self._choice] += p.keep_bonus
+        # No dithering: turning back the way the robot just turned costs extra.
+        last_turn = self._last_turn
+        if last_turn != 0.0:
+            turns = np.array([float(a[1]) for a in actions])
+            total[turns * last_turn < 0.0] -= p.reversal_penalty
         self._last_scores = scores
         self._choice = int(np.argmax(total))
+        self._follower = follower if self._choice == len(p.primitives) else None
         self._held = 1
-        return np.array(p.primitives[self._choice], dtype=np.float32)
+        return actions[self._choice]
+
+    def _command(self, pose: np.ndarray) -> np.ndarray:
+        """The held candidate's command: its primitive, or the frontier follower's."""
+        if self._follower is not None:
+            return self._follower.action(pose)
+        return np.array(self.params.primitives[self._choice], dtype=np.float32)
 
     def _start_recovery(self, pose: np.ndarray) -> np.ndarray:
         """Ran into something unmapped (where the robot thinks it is): remember it
@@ -275,20 +308,20 @@ class InfoGainAgent:
         mem.add_bump(ahead, p.bump_radius + mem.inflation)
         self._field = None
         self._choice = -1
+        self._follower = None
         self._recovery = p.recovery_steps - 1
         turn = 0.6 if self.rng.random() < 0.5 else -0.6
         self._recovery_action = np.array([-0.5, turn], dtype=np.float32)
         return self._recovery_action
 
     # ------------------------------------------------------------------ prediction
-    def _rollouts(self, pose: np.ndarray) -> np.ndarray:
-        """(n_primitives, horizon + 1, 3) the poses each primitive leads to (exact
-        unicycle arcs), starting with the current pose."""
-        p = self.params
-        prims = np.asarray(p.primitives, dtype=np.float64)
-        v = prims[:, 0] * self._max_speed  # m/s
-        w = prims[:, 1] * self._max_turn  # rad/s
-        t = np.arange(p.horizon + 1) * self._dt  # s
+    def _arcs(self, pose: np.ndarray, commands: np.ndarray, steps: int) -> np.ndarray:
+        """(k, steps + 1, 3) the poses of a unicycle at ``pose`` holding each of the
+        (speed, turn) fraction ``commands`` (k, 2) for ``steps`` env steps (exact
+        arcs), starting with ``pose``."""
+        v = commands[:, 0] * self._max_speed  # m/s
+        w = commands[:, 1] * self._max_turn  # rad/s
+        t = np.arange(steps + 1) * self._dt  # s
         th = pose[2] + w[:, None] * t[None, :]
         straight = np.abs(w) < 1e-9
         w_safe = np.where(straight, 1.0, w)[:, None]
@@ -297,18 +330,70 @@ class InfoGainAgent:
         line = t[None, :] * np.ones_like(w)[:, None]
         dx = np.where(straight[:, None], line * math.cos(pose[2]), arc_x) * v[:, None]
         dy = np.where(straight[:, None], line * math.sin(pose[2]), arc_y) * v[:, None]
-        out = np.empty((len(prims), p.horizon + 1, 3))
+        out = np.empty((len(commands), steps + 1, 3))
         out[..., 0] = pose[0] + dx
         out[..., 1] = pose[1] + dy
         out[..., 2] = wrap_angle(th)
         return out
 
-    def _score(self, pose: np.ndarray) -> np.ndarray:
-        """(n_primitives, 4) information, discovery, frontier and collision terms."""
+    def _candidates(
+        self, pose: np.ndarray
+    ) -> tuple[np.ndarray, list[np.ndarray], PathFollower | None]:
+        """The candidates' predicted poses (k, horizon + 1, 3), their first commands,
+        and the frontier follower: the fixed primitives, plus (when the frontier field
+        leads somewhere) pure pursuit down the field, simulated in closed loop."""
+        p = self.params
+        prims = np.asarray(p.primitives, dtype=np.float64)
+        paths = self._arcs(pose, prims, p.horizon)
+        actions = [np.array(c, dtype=np.float32) for c in p.primitives]
+        follower = self._frontier_follower(pose)
+        if follower is None:
+            return paths, actions, None
+        sim = PathFollower(follower.points, follower.lookahead, follower.params)
+        guided = np.empty((1, p.horizon + 1, 3))
+        guided[0, 0] = pose
+        for k in range(p.horizon):
+            command = sim.action(guided[0, k]).astype(np.float64)
+            if k == 0:
+                actions.append(command.astype(np.float32))
+            guided[0, k + 1] = self._arcs(guided[0, k], command[None, :], 1)[0, 1]
+        return np.concatenate([paths, guided]), actions, follower
+
+    def _frontier_follower(self, pose: np.ndarray) -> PathFollower | None:
+        """Pure pursuit along the steepest descent of the frontier field from the
+        robot (up to ``guide_length`` m of path), or None at a frontier."""
+        field = self._field
+        if field is None:
+            return None
+        grid = self._memory.grid
+        i, j = grid.cell_of(pose[0], pose[1])
+        if not math.isfinite(field[i, j]):
+            near = nearest_passable(np.isfinite(field), (i, j), max_radius=3)
+            if near is None:
+                return None
+            i, j = near
+        points = [pose[:2].copy()]
+        for _ in range(math.ceil(self.params.guide_length / grid.resolution)):
+            if field[i, j] <= 0.0:
+                break
+            i0, j0 = max(i - 1, 0), max(j - 1, 0)
+            window = field[i0 : i + 2, j0 : j + 2]
+            k = int(np.argmin(window))
+            a, b = divmod(k, window.shape[1])
+            if not window[a, b] < field[i, j]:
+                break
+            i, j = a + i0, b + j0
+            points.append(np.array([grid.xs[j], grid.ys[i]]))
+        if len(points) < 2:
+            return None
+        return PathFollower(np.array(points), self.params.lookahead, self._control)
+
+    def _score(self, pose: np.ndarray, paths: np.ndarray) -> np.ndarray:
+        """(k, 4) information, discovery, frontier and collision terms of the
+        candidates' predicted poses ``paths`` (k, horizon + 1, 3)."""
         p = self.params
         mem = self._memory
         f = self._base.filter
-        paths = self._rollouts(pose)
         n = len(paths)
         scores = np.zeros((n, 4))
 
@@ -345,7 +430,6 @@ class InfoGainAgent:
                 continue  # a colliding primitive never wins: skip the costly terms
             path = paths[k]
             g = f.copy()
-            seen = np.zeros(cov.grid.shape, dtype=bool)
             for step in range(1, p.horizon + 1):
                 p0, p1 = path[step - 1], path[step]
                 if model == "odometry":
@@ -353,15 +437,15 @@ class InfoGainAgent:
                 else:
                     u = velocity_from_poses(p0, p1)
                 g.predict(np.asarray(u))
-                if step in p.observe_at:
-                    if len(ids):
-                        vis = self._visible(p1, means)
-                        if vis.any():
-                            g.update(h(p1, means[vis]), ids[vis])
-                    ii, jj = cov.footprint(p1)
-                    seen[ii, jj] = True
+                if step in p.observe_at and len(ids):
+                    vis = self._visible(p1, means)
+                    if vis.any():
+                        g.update(h(p1, means[vis]), ids[vis])
             scores[k, 0] = 0.5 * (logdet_now - self._logdet(g.cov))
-            scores[k, 1] = value * float(np.count_nonzero(seen & unswept))
+            # The footprint at the end: with the one at the start it brackets what a
+            # turn of less than the FOV sweeps on the way.
+            ii, jj = cov.footprint(path[-1])
+            scores[k, 1] = value * float(np.count_nonzero(unswept[ii, jj]))
             d_end = self._field_ahead(field, path[-1])
             if math.isfinite(d_now) and math.isfinite(d_end):
                 scores[k, 2] = p.frontier_weight * (d_now - d_end)
@@ -406,8 +490,9 @@ class InfoGainAgent:
 
     # ------------------------------------------------------------------ guidance
     def _distance_field(self, pose: np.ndarray) -> np.ndarray:
-        """Path distance (m) to the nearest frontier cell (unswept area around it), or,
-        when everything is swept, to the viewpoints of the least certain landmarks."""
+        """Path distance (m, on the planning grid) to the nearest frontier cell — a free
+        cell with at least ``min_gain`` unswept area around it — or, when everything is
+        swept, to the viewpoints of the least certain landmarks."""
         p = self.params
         mem = self._memory
         grid = mem.grid
@@ -429,9 +514,8 @@ class InfoGainAgent:
         return dist
 
     def _landmark_viewpoints(self) -> np.ndarray:
-        """Free cells 1–3 m from the three least certain landmarks."""
-        mem = self._memory
-        grid = mem.grid
+        """Free planning cells 1–3 m from the three least certain landmarks."""
+        grid = self._memory.grid
         f = self._base.filter
         out = np.zeros(grid.shape, dtype=bool)
         if not f.n_landmarks:
@@ -443,19 +527,36 @@ class InfoGainAgent:
             dy = grid.ys[:, None] - means[k, 1]
             d2 = dx * dx + dy * dy
             out |= (d2 >= 1.0) & (d2 <= 9.0)
-        return out & mem.free
+        return out & self._memory.free
 
     def _field_ahead(self, field: np.ndarray | None, pose: np.ndarray) -> float:
-        """The field ``heading_lookahead`` ahead of ``pose`` (where the robot is
-        heading), or at the pose when that point is unreachable: turning toward the
-        frontier is progress too."""
-        ahead = pose[:2] + self.params.heading_lookahead * np.array(
-            [math.cos(pose[2]), math.sin(pose[2])]
-        )
-        value = self._field_at(field, ahead, search=0)
-        if math.isfinite(value):
+        """The field at ``pose``, minus ``heading_lookahead``·cos(heading error to the
+        field's descent direction): facing downhill counts as being that much nearer,
+        so turning toward the frontier is progress too (and turning away is not)."""
+        if field is None:
+            return math.inf
+        grid = self._memory.grid
+        start = grid.cell_of(pose[0], pose[1])
+        if not math.isfinite(field[start]):
+            near = nearest_passable(np.isfinite(field), start, max_radius=3)
+            if near is None:
+                return math.inf
+            start = near
+        i, j = start
+        value = float(field[i, j]) + math.dist(grid.center(i, j), pose[:2])
+        for _ in range(4):  # steepest descent for up to 4 cells: the downhill direction
+            i0, j0 = max(i - 1, 0), max(j - 1, 0)
+            window = field[i0 : i + 2, j0 : j + 2]
+            k = int(np.argmin(window))
+            a, b = divmod(k, window.shape[1])
+            if not window[a, b] < field[i, j]:
+                break
+            i, j = a + i0, b + j0
+        if (i, j) == start:
             return value
-        return self._field_at(field, pose[:2]) + self.params.heading_lookahead
+        x, y = grid.center(i, j)
+        err = math.atan2(y - pose[1], x - pose[0]) - pose[2]
+        return value - self.params.heading_lookahead * math.cos(err)
 
     def _field_at(self, field: np.ndarray | None, point: np.ndarray, search: int = 2) -> float:
         """The field at ``point``, or at the nearest reached cell around it."""

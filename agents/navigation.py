@@ -537,7 +537,9 @@ def sensor_footprint(
     ii += i0
     jj += j0
     if occluders is not None and len(ii):
-        ok = occluders.line_of_sight((x, y), np.stack([grid.xs[jj], grid.ys[ii]], axis=-1))
+        ok = occluders.line_of_sight(
+            (x, y), np.stack([grid.xs[jj], grid.ys[ii]], axis=-1), step=occluders.resolution
+        )
         ii, jj = ii[ok], jj[ok]
     return ii, jj
 
@@ -834,6 +836,21 @@ class ExplorationMemory:
         for x, y, r in self._bumps:
             free &= self.grid.passable(-math.inf, np.array([[x, y]]), r)
         self.free = free
+
+    def coarse_free_and_cost(self) -> tuple[np.ndarray, np.ndarray]:
+        """The configuration space and the proximity cost pooled onto the coverage grid
+        (a coarse cell is free if any planning cell in it is; its cost is their
+        least): a cheap grid for distance fields that only guide."""
+        cg = self.coverage.grid
+        free = np.zeros(cg.shape, dtype=bool)
+        cost = np.full(cg.shape, np.inf)
+        ci = self.cov_rows[:, None]
+        cj = self.cov_cols[None, :]
+        ci, cj = np.broadcast_arrays(ci, cj)
+        np.logical_or.at(free, (ci, cj), self.free)
+        np.minimum.at(cost, (ci, cj), np.where(self.free, self.cell_cost, np.inf))
+        cost[~np.isfinite(cost)] = 1.0
+        return free, cost
 
     def on_planning_grid(self, coverage_values: np.ndarray) -> np.ndarray:
         """Resample a (coverage-grid) array onto the planning grid."""

@@ -13,9 +13,15 @@ from slam_env.config import (
     WorldConfig,
     make_config,
 )
-from slam_env.registration import register_envs
 
-register_envs()
+try:
+    import gymnasium  # noqa: F401
+except ImportError:  # the filter alone (slam_env.ekf) needs only numpy
+    pass
+else:
+    from slam_env.registration import register_envs
+
+    register_envs()
 
 __all__ = [
     "EnvConfig",

@@ -157,7 +157,7 @@ class OdometryConfig:
     control noise Σu = diag(σp² + βp·Δp², σθ² + βθ·Δθ²) of seed 004."""
 
     motion_model: str = "odometry"
-    alphas: tuple[float, float, float, float] = (0.05, 0.005, 0.02, 0.005)  # α1..α4, unitless
+    alphas: tuple[float, float, float, float] = (0.005, 0.002, 0.01, 0.001)  # α1..α4, unitless
     velocity_noise: tuple[float, float, float, float] = (0.0, 0.0, 0.01, 0.02)
     # (σp [m], σθ [rad], βp [unitless], βθ [unitless])
 

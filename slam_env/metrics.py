@@ -3,10 +3,10 @@
 from __future__ import annotations
 
 import math
-from statistics import NormalDist
 
 import numpy as np
 
+from slam_env.ekf import chi2_ppf
 from slam_env.geometry import wrap_angle
 
 _LOG_2PI_E = math.log(2.0 * math.pi * math.e)
@@ -27,8 +27,11 @@ def position_error(estimate, truth) -> float:
 
 
 def nees(error, cov) -> float:
-    """Normalised estimation error squared eᵀ Σ⁻¹ e (inf if Σ is singular along e)."""
+    """Normalised estimation error squared eᵀ Σ⁻¹ e: 0 for a zero error (an exactly
+    known state), inf if Σ is singular along a non-zero e."""
     error = np.asarray(error, dtype=np.float64)
+    if not error.any():
+        return 0.0
     try:
         solved = np.linalg.solve(np.asarray(cov, dtype=np.float64), error)
     except np.linalg.LinAlgError:
@@ -77,23 +80,9 @@ def gaussian_entropy(cov, floor: float = 0.0) -> float:
     return 0.5 * (cov.shape[0] * _LOG_2PI_E + log_det_psd(cov, floor))
 
 
-def chi2_quantile(p: float, dof: int) -> float:
-    """The p-quantile of χ²(dof), Wilson–Hilferty approximation (relative error
-    below 1e-3 for dof ≥ 3; exact closed form for dof = 2)."""
-    if not 0.0 < p < 1.0:
-        raise ValueError(f"p must be in (0, 1), got {p}")
-    if dof < 1:
-        raise ValueError(f"dof must be >= 1, got {dof}")
-    if dof == 2:
-        return -2.0 * math.log(1.0 - p)
-    z = NormalDist().inv_cdf(p)
-    k = 2.0 / (9.0 * dof)
-    return dof * (1.0 - k + z * math.sqrt(k)) ** 3
-
-
 def nees_band(dof: int, runs: int, confidence: float = 0.95) -> tuple[float, float]:
     """Two-sided band for the NEES averaged over ``runs`` Monte Carlo runs: the
     sum of ``runs`` NEES values is χ²(runs·dof) under a consistent filter."""
     tail = (1.0 - confidence) / 2.0
     total = runs * dof
-    return chi2_quantile(tail, total) / runs, chi2_quantile(1.0 - tail, total) / runs
+    return chi2_ppf(tail, total) / runs, chi2_ppf(1.0 - tail, total) / runs

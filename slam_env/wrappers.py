@@ -11,7 +11,7 @@ import numpy as np
 
 from slam_env import metrics
 from slam_env.belief import BeliefGeometry, EgocentricEncoding, FullEncoding
-from slam_env.ekf import EKFSLAM
+from slam_env.ekf import EKFSLAM, chi2_gate
 from slam_env.env import unpack_detections
 from slam_env.overlay import BeliefOverlay
 
@@ -19,7 +19,7 @@ OBSERVATION_MODES = ("egocentric", "full")
 CORRECTION_MODES = ("sequential", "batch")
 # The default validation gate: χ²(2 dof) at 99.9%. A noise-matched filter rejects one
 # good observation in a thousand, while a gross outlier (say 10σ) never passes.
-DEFAULT_GATE = metrics.chi2_quantile(0.999, 2)
+DEFAULT_GATE = chi2_gate(0.999)
 # Covariance floor (m², rad²) of the entropy: uncertainty below 1 cm carries no
 # information worth paying for, and it keeps the entropy finite for an exactly
 # known start pose.

@@ -15,11 +15,11 @@ Costs (``d = 3 + 2n``)
 ---------------------
 * ``predict``: ``P_xx ← G P_xx Gᵀ + R_x``, ``P_xm ← G P_xm`` — O(d).
 * one correction: ``C = P Hᵀ`` from the 5 rows of ``P`` that ``H`` touches,
-  ``S = H C + Q`` (2×2, Cholesky), the mean step ``K ν`` — O(d) — and a low-rank
-  Joseph update ``P ← P − Y Yᵀ + Z Zᵀ`` (``Y, Z: d×2``) — O(d²).
-* ``update`` with k observations applies the k low-rank terms together at its end
-  (rank 2k each, symmetric BLAS products): ``P`` is streamed twice per update, not
-  2k times; each sequential correction sees the rows it needs corrected by the ones
+  ``S = H C + Q`` (2×2, Cholesky), the mean step ``K ν`` — O(d) — and the Joseph
+  update written as ``P ← P − Y Yᵀ`` with one well-scaled factor ``Y: d×2`` — O(d²).
+* ``update`` with k observations applies the k factors together at its end, as one
+  symmetric rank-2k product: ``P`` is streamed once per update, not k times. Each
+  sequential correction sees the rows it needs already corrected by the ones
   before it (O(k·d)), so this is exactly the sequential filter. Batch mode stacks
   the k observations (S: 2k×2k) and applies the same update.
 * a new landmark: one ``2×3`` by ``3×d`` product — O(d).
@@ -59,12 +59,15 @@ class Status(enum.IntEnum):
 
     CORRECTED = 0  # a known landmark: the EKF correction was applied
     INITIALISED = 1  # a new landmark: added to the state from the inverse model
-    REJECTED = 2  # a known landmark that failed the χ² gate: not applied, counted
+    REJECTED = 2  # a known landmark that failed the χ² gate (or that h cannot
+    # linearise: range-bearing with the landmark estimated on the robot): not
+    # applied, counted in n_rejected
 
 
 CORRECTED = Status.CORRECTED
 INITIALISED = Status.INITIALISED
 REJECTED = Status.REJECTED
+_CORRECTED, _REJECTED = int(CORRECTED), int(REJECTED)  # plain ints for the hot loop
 
 
 @dataclass(frozen=True)
@@ -360,11 +363,9 @@ class EKFSLAM:
         dmax = 3 + 2 * self._N
         # Flat buffers, used as contiguous (rows, d) views.
         self._T = np.empty(dmax * dmax)  # a low-rank term of the covariance update
-        k = min(self._N, 8)  # observations per update the factor buffer holds; grows
-        self._Ub = np.empty((4 * k + 1) * dmax)  # Joseph factors of one update's corrections
-        self._signs = np.tile([[1.0], [1.0], [-1.0], [-1.0]], (k, 1))
+        self._grow_factors(min(self._N, 8))  # grows with the observations per update
         self._H = np.empty((2, 5))
-        self._F = np.empty((5, 2))
+        self._F = np.empty((3, 2))
 
     @staticmethod
     def _check_prior(pose: Any, cov: Any) -> tuple[np.ndarray, np.ndarray]:
@@ -516,15 +517,17 @@ class EKFSLAM:
     def __deepcopy__(self, memo: dict) -> EKFSLAM:
         return self.copy()
 
+    # Derived or scratch attributes: rebuilt on unpickling, never pickled.
+    _TRANSIENT = ("_T", "_Ub", "_k_cap", "_H", "_F", "_mm", "_hm", "_noise", "_q")
+
     def __getstate__(self) -> dict[str, Any]:
         d = 3 + 2 * self._n
         state = {
             k: v
             for k, v in self.__dict__.items()
-            if k not in ("_T", "_Ub", "_signs", "_H", "_F", "_P", "_mm", "_hm", "_noise", "_q")
-            and not k.startswith("_angle")
+            if k not in self._TRANSIENT and k != "_P" and not k.startswith("_angle")
         }
-        state["_P"] = self._P[:d, :d].copy()
+        state["_P"] = self._P[:d, :d].copy()  # the live block only
         return state
 
     def __setstate__(self, state: dict[str, Any]) -> None:
@@ -605,10 +608,20 @@ class EKFSLAM:
         for i, lid in enumerate(id_list):
             (known if slots[lid] >= 0 else new).append(i)
         if known:
-            if self._correction == "batch":
-                self._correct_batch(z, id_list, known, status, nis)
-            else:
-                self._correct_sequential(z.tolist(), id_list, known, status, nis)
+            saved = self._x[: 3 + 2 * self._n].copy(), self._n_rejected
+            try:
+                if self._correction == "batch":
+                    self._correct_batch(z, id_list, known, status, nis)
+                else:
+                    self._correct_sequential(z.tolist(), id_list, known, status, nis)
+            except FloatingPointError as exc:
+                # Only a covariance that lost definiteness gets here (S ⪰ Q ≻ 0 when
+                # P ⪰ 0). P is written last, so restoring the mean undoes the call.
+                self._x[: saved[0].size] = saved[0]
+                self._n_rejected = saved[1]
+                raise FloatingPointError(
+                    f"{exc}: the state covariance is no longer positive semi-definite"
+                ) from None
         if new:
             self._initialise(z[new], [id_list[i] for i in new])
             status[new] = Status.INITIALISED
@@ -643,27 +656,30 @@ class EKFSLAM:
             raise ValueError(f"duplicate landmark id {dup} in one update")
         return z, id_list
 
+    def _grow_factors(self, k: int) -> None:
+        """Room for the Joseph factors of k corrections in one update (2 rows each)
+        and a scratch row."""
+        self._k_cap = k
+        self._Ub = np.empty((2 * k + 1) * (3 + 2 * self._N))
+
     def _factor_buffer(self, k: int, d: int) -> np.ndarray:
-        """A contiguous (4k + 1, d) scratch view for the factors of k corrections."""
-        if self._Ub.size < (4 * k + 1) * d:
-            self._Ub = np.empty((4 * k + 1) * (3 + 2 * self._N))
-            self._signs = np.tile([[1.0], [1.0], [-1.0], [-1.0]], (k, 1))
-        return self._Ub[: (4 * k + 1) * d].reshape(4 * k + 1, d)
+        """A contiguous (2k + 1, d) scratch view for the factors of k corrections."""
+        if k > self._k_cap:
+            self._grow_factors(k)
+        return self._Ub[: (2 * k + 1) * d].reshape(2 * k + 1, d)
 
-    def _apply_joseph(self, Y: np.ndarray, Z: np.ndarray) -> None:
-        """P ← P − Yᵀ Y + Zᵀ Z on the live block (Y, Z: (r, d), stacked row factors).
+    def _apply_joseph(self, Y: np.ndarray) -> None:
+        """P ← P − Yᵀ Y on the live block (Y: (r, d), the stacked row factors).
 
-        Each term is a symmetric rank-r product that numpy evaluates with BLAS syrk
-        and mirrors, so P stays exactly symmetric whatever the BLAS. P is streamed
-        twice per update, however many observations it folds in.
+        ``Y.T @ Y`` is a symmetric rank-r product that numpy evaluates with BLAS syrk
+        and mirrors, so P stays exactly symmetric whatever the BLAS; P is read and
+        written once per update, however many observations it folds in.
         """
         d = Y.shape[1]
         T = self._T[: d * d].reshape(d, d)
         Pv = self._P[:d, :d]
         np.matmul(Y.T, Y, out=T)
         np.subtract(Pv, T, out=Pv)
-        np.matmul(Z.T, Z, out=T)
-        np.add(Pv, T, out=Pv)
 
     def _correct_sequential(
         self,
@@ -677,43 +693,43 @@ class EKFSLAM:
         at the mean corrected by the ones before it.
 
         One observation: with C = P Hᵀ (d×2), S = H C + Q = L Lᵀ (Cholesky) and the
-        gain K = C S⁻¹, the Joseph form
+        gain K = C G, G = S⁻¹ as computed, the Joseph form is
 
             P⁺ = (I − KH) P (I − KH)ᵀ + K Q Kᵀ = P − K Cᵀ − C Kᵀ + K S Kᵀ
-               = P − Y Yᵀ + Z Zᵀ,   Y = C L⁻ᵀ,  Z = (C − K S) L⁻ᵀ,
+               = P − Y₀ Y₀ᵀ + Z Zᵀ,   Y₀ = C L⁻ᵀ,  Z = (C − K S) L⁻ᵀ,
 
-        an identity for *any* gain K. Why Joseph: the gain we apply is optimal only up
-        to rounding, and the Joseph form stays the covariance of the estimate actually
-        made with it (an error in K only adds the PSD term Z Zᵀ; the short form
-        (I − KH) P takes it at first order and drifts from symmetry). Y is the
-        well-scaled factor of the symmetric form P − C S⁻¹ Cᵀ, to which this reduces
-        for the exact gain. The two terms are symmetric (syrk) products, so P stays
-        exactly symmetric.
+        an identity for *any* gain. Why Joseph: G is S⁻¹ only up to rounding, and
+        the Joseph form stays the covariance of the estimate actually made with that
+        gain: the gain error E = I − S G enters as the PSD term Z Zᵀ, where the short
+        form (I − KH) P takes it at first order and drifts from symmetry. With
+        W = L⁻¹ E L the two terms share one factor: Y₀ Y₀ᵀ − Z Zᵀ = Y Yᵀ with
+        Y = C L⁻ᵀ V, V Vᵀ = I − Wᵀ W (2×2 Cholesky, V = I when the gain is exact).
+        So P⁺ = P − Y Yᵀ: Y is as well scaled as the textbook factor C L⁻ᵀ, and the
+        update is a symmetric (syrk) product, so P stays exactly symmetric.
 
         Cost: the mean is corrected at once (O(d)); the O(d²) covariance update is
         deferred. Observation j only needs the 5 rows of P that its H touches: the
-        rows at the start of the update minus the low-rank terms of the corrections
-        before it (O(j·d)). At the end all terms are applied together
-        (:meth:`_apply_joseph`), so an update streams P twice however many
+        rows at the start of the update minus Σ Yᵢ Yᵢᵀ over the corrections before it
+        (O(j·d)). At the end all of them are applied as one rank-2k update
+        (:meth:`_apply_joseph`), so an update streams P once however many
         observations it has. Mathematically this is exactly the sequential filter.
         """
         x, P = self._x, self._P
         d = 3 + 2 * self._n
-        U = self._factor_buffer(len(known), d)  # rows Y₁ᵀ, Z₁ᵀ, Y₂ᵀ, Z₂ᵀ, … (+ scratch)
-        H, F, signs = self._H, self._F, self._signs
+        U = self._factor_buffer(len(known), d)  # rows Y₁ᵀ, Y₂ᵀ, … (+ a scratch row)
+        H, F = self._H, self._F
         slots = self._id_to_slot
         lin = self._hm.linearise
         q00, q01, q11 = self._q
         gate = self._gate
-        r = 0  # factor rows in use: 4 per applied correction
+        r = 0  # factor rows in use: 2 per applied correction
         for i in known:
             s = 3 + 2 * int(slots[id_list[i]])
-            rx, ry, rth = x[:3].tolist()
-            mx, my = x[s : s + 2].tolist()
+            idx = (0, 1, 2, s, s + 1)  # the non-zero columns of H
             try:
-                zh0, zh1, h0, h1 = lin(rx, ry, rth, mx, my)
+                zh0, zh1, h0, h1 = lin(*x.take(idx).tolist())
             except ZeroDivisionError:  # the landmark estimate sits on the robot
-                status[i] = Status.REJECTED
+                status[i] = _REJECTED
                 self._n_rejected += 1
                 continue
             zi = zl[i]
@@ -723,15 +739,13 @@ class EKFSLAM:
                 nu0 = (nu0 + math.pi) % _TWO_PI - math.pi
             if self._angle1:
                 nu1 = (nu1 + math.pi) % _TWO_PI - math.pi
-            idx = (0, 1, 2, s, s + 1)
             # The 5 rows of the current P that H touches (P = Pᵀ): those at the start
-            # of the update minus Σ (Y Yᵀ − Z Zᵀ) of the corrections made since.
+            # of the update minus Σ Yᵢ Yᵢᵀ of the corrections made since.
             R = P.take(idx, axis=0)[:, :d]
             if r:
                 Ur = U[:r]
-                R -= np.dot((Ur.take(idx, axis=1) * signs[:r]).T, Ur)
-            H[0] = h0  # the 5 non-zero columns of H (2×5)
-            H[1] = h1
+                R -= np.dot(Ur.take(idx, axis=1).T, Ur)
+            H.flat = h0 + h1  # the 5 non-zero columns of H (2×5)
             Ct = np.dot(H, R)  # Cᵀ = H P (2×d)
             (c00, c01, c02, c03, c04), (c10, c11, c12, c13, c14) = Ct.take(idx, 1).tolist()
             # S = H P Hᵀ + Q, entry by entry (the (1, 0) entry is the (0, 1) one).
@@ -739,9 +753,14 @@ class EKFSLAM:
             s01 = c00 * h1[0] + c01 * h1[1] + c02 * h1[2] + c03 * h1[3] + c04 * h1[4] + q01
             s11 = c10 * h1[0] + c11 * h1[1] + c12 * h1[2] + c13 * h1[3] + c14 * h1[4] + q11
             # Cholesky S = L Lᵀ of the 2×2 and L⁻¹ = [[i00, 0], [i10, i11]].
+            if not s00 > 0.0:
+                raise FloatingPointError("innovation covariance S is not positive definite")
             l00 = math.sqrt(s00)
             l10 = s01 / l00
-            l11 = math.sqrt(s11 - l10 * l10)
+            v = s11 - l10 * l10
+            if not v > 0.0:
+                raise FloatingPointError("innovation covariance S is not positive definite")
+            l11 = math.sqrt(v)
             i00 = 1.0 / l00
             i11 = 1.0 / l11
             i10 = -l10 * i00 * i11
@@ -750,11 +769,10 @@ class EKFSLAM:
             value = w0 * w0 + w1 * w1
             nis[i] = value
             if gate is not None and value > gate:
-                status[i] = Status.REJECTED
+                status[i] = _REJECTED
                 self._n_rejected += 1
                 continue
-            # S⁻¹ = L⁻ᵀ L⁻¹ = [[g00, g01], [g01, g11]]; the gain K = C S⁻¹ leaves the
-            # residual (C − K S)ᵀ = E Cᵀ with E = I − S S⁻¹ (zero up to rounding).
+            # G = S⁻¹ = L⁻ᵀ L⁻¹ = [[g00, g01], [g01, g11]] and its error E = I − S G.
             g00 = i00 * i00 + i10 * i10
             g01 = i10 * i11
             g11 = i11 * i11
@@ -762,27 +780,34 @@ class EKFSLAM:
             e01 = -(s00 * g01 + s01 * g11)
             e10 = -(s01 * g00 + s11 * g01)
             e11 = 1.0 - (s01 * g01 + s11 * g11)
-            # Rows Yᵀ = L⁻¹ Cᵀ, Zᵀ = L⁻¹ E Cᵀ and the mean step (K ν)ᵀ = (S⁻¹ν)ᵀ Cᵀ.
+            # W = L⁻¹ E L, then V = chol(I − Wᵀ W) and the rows of Yᵀ = Vᵀ L⁻¹ Cᵀ.
+            el00 = e00 * l00 + e01 * l10
+            el10 = e10 * l00 + e11 * l10
+            x00 = i00 * el00
+            x01 = i00 * e01 * l11
+            x10 = i10 * el00 + i11 * el10
+            x11 = (i10 * e01 + i11 * e11) * l11
+            b00 = 1.0 - (x00 * x00 + x10 * x10)
+            b01 = -(x00 * x01 + x10 * x11)
+            b11 = 1.0 - (x01 * x01 + x11 * x11)
+            v00 = math.sqrt(b00)
+            v10 = b01 / v00
+            v11 = math.sqrt(b11 - v10 * v10)
             F.flat = (
-                i00,
-                0.0,
-                i10,
-                i11,
-                i00 * e00,
-                i00 * e01,
-                i10 * e00 + i11 * e10,
-                i10 * e01 + i11 * e11,
-                g00 * nu0 + g01 * nu1,
+                v00 * i00 + v10 * i10,
+                v10 * i11,
+                v11 * i10,
+                v11 * i11,
+                g00 * nu0 + g01 * nu1,  # the mean step (K ν)ᵀ = (G ν)ᵀ Cᵀ
                 g01 * nu0 + g11 * nu1,
             )
-            np.dot(F, Ct, out=U[r : r + 5])
-            x[:d] += U[r + 4]
+            np.dot(F, Ct, out=U[r : r + 3])
+            x[:d] += U[r + 2]
             x[2] = (x[2] + math.pi) % _TWO_PI - math.pi
-            status[i] = Status.CORRECTED
-            r += 4
+            status[i] = _CORRECTED
+            r += 2
         if r:
-            W = U[:r].reshape(r // 4, 4, d)
-            self._apply_joseph(W[:, :2].reshape(r // 2, d), W[:, 2:].reshape(r // 2, d))
+            self._apply_joseph(U[:r])
 
     def _correct_batch(
         self,
@@ -792,74 +817,84 @@ class EKFSLAM:
         status: np.ndarray,
         nis: np.ndarray,
     ) -> None:
-        """Batch EKF correction: every known observation gated on its own 2×2 block
-        of S, the accepted ones stacked (H: 2k×d through its non-zero columns) and
-        applied at once with the Joseph form of :meth:`_correct_sequential`."""
+        """Batch EKF correction: all known observations linearised at the same mean,
+        each gated on its own 2×2 block of S, the accepted ones stacked (H: 2k×d
+        through its 5k non-zero columns) and applied at once with the Joseph form of
+        :meth:`_correct_sequential` in 2k×2k matrices."""
         x, P = self._x, self._P
         d = 3 + 2 * self._n
-        hm = self._hm
-        slots = self._id_to_slot[[id_list[i] for i in known]]
-        s = 3 + 2 * slots
-        m = x[np.stack([s, s + 1], axis=-1)]  # (k, 2) landmark means
-        pose = x[:3].copy()
-        singular = hm.singular(pose, m)
-        if singular.any():
-            for j in np.flatnonzero(singular).tolist():
-                status[known[j]] = Status.REJECTED
+        lin = self._hm.linearise
+        pose = x[:3].tolist()
+        zl = z.tolist()
+        q00, q01, q11 = self._q
+        gate = self._gate
+        rows, nus, cols, obs = [], [], [], []
+        for i in known:
+            s = 3 + 2 * int(self._id_to_slot[id_list[i]])
+            try:
+                zh0, zh1, h0, h1 = lin(*pose, *x[s : s + 2].tolist())
+            except ZeroDivisionError:  # the landmark estimate sits on the robot
+                status[i] = _REJECTED
                 self._n_rejected += 1
-            keep = ~singular
-            known = [i for i, ok in zip(known, keep.tolist(), strict=True) if ok]
-            s, m = s[keep], m[keep]
-            if not known:
-                return
-        k = len(known)
-        nu = z[known] - hm.h(pose, m)
-        if self._angle0:
-            nu[:, 0] = (nu[:, 0] + math.pi) % _TWO_PI - math.pi
-        if self._angle1:
-            nu[:, 1] = (nu[:, 1] + math.pi) % _TWO_PI - math.pi
-        Hx, Hm = hm.jacobians(pose, m)
-        H = np.concatenate([Hx, Hm], axis=2)  # (k, 2, 5): the non-zero columns of H
-        idx = np.empty((k, 5), dtype=np.int64)
-        idx[:, :3] = (0, 1, 2)
-        idx[:, 3] = s
-        idx[:, 4] = s + 1
-        flat = idx.ravel()
-        R = P.take(flat, axis=0)[:, :d].reshape(k, 5, d)
-        Ct = np.matmul(H, R).reshape(2 * k, d)  # Cᵀ = H P (2k×d)
-        # S[(a, r), (b, c)] = Σ_j Cᵀ[(a, r), idx[b, j]] H[b, c, j] + δ_ab Q[r, c]
-        S = np.einsum("xbj,bcj->xbc", Ct.take(flat, axis=1).reshape(2 * k, k, 5), H)
-        S = S.reshape(2 * k, 2 * k)
-        S = 0.5 * (S + S.T)
-        blocks = S.reshape(k, 2, k, 2)
-        ar = np.arange(k)
-        blocks[ar, :, ar, :] += self._Q
-        # Each observation's own NIS on its 2×2 block (the gate's statistic).
-        b00, b01, b11 = blocks[ar, 0, ar, 0], blocks[ar, 0, ar, 1], blocks[ar, 1, ar, 1]
-        det = b00 * b11 - b01 * b01
-        own = (b11 * nu[:, 0] ** 2 - 2.0 * b01 * nu[:, 0] * nu[:, 1] + b00 * nu[:, 1] ** 2) / det
-        nis[known] = own
-        if self._gate is not None:
-            ok = own <= self._gate
-            if not ok.all():
-                bad = [i for i, good in zip(known, ok.tolist(), strict=True) if not good]
-                status[bad] = Status.REJECTED
-                self._n_rejected += len(bad)
-                if not ok.any():
-                    return
-                rows = np.repeat(ok, 2)
-                Ct, S, nu = Ct[rows], S[np.ix_(rows, rows)], nu[ok]
-                known = [i for i, good in zip(known, ok.tolist(), strict=True) if good]
-        # Joseph form as in _correct_sequential, S = L Lᵀ (2k×2k) the only factorisation.
-        eye = np.eye(Ct.shape[0])
-        Li = np.linalg.solve(np.linalg.cholesky(S), eye)  # L⁻¹
-        Sinv = Li.T @ Li
-        Y = Li @ Ct  # Yᵀ = L⁻¹ Cᵀ
-        Z = (Li @ (eye - S @ Sinv)) @ Ct  # Zᵀ = L⁻¹ (C − K S)ᵀ for K = C S⁻¹
-        x[:d] += (Sinv @ nu.ravel()) @ Ct  # x += K ν
+                continue
+            nu0 = zl[i][0] - zh0
+            nu1 = zl[i][1] - zh1
+            if self._angle0:
+                nu0 = (nu0 + math.pi) % _TWO_PI - math.pi
+            if self._angle1:
+                nu1 = (nu1 + math.pi) % _TWO_PI - math.pi
+            rows.append((h0, h1))
+            nus.append((nu0, nu1))
+            cols.extend((0, 1, 2, s, s + 1))
+            obs.append(i)
+        if not obs:
+            return
+        k = len(obs)
+        Hb = np.zeros((2 * k, 5 * k))  # block-diagonal: the non-zero columns of H
+        Hb.reshape(k, 2, k, 5)[np.arange(k), :, np.arange(k), :] = rows
+        Ct = np.dot(Hb, P.take(cols, axis=0)[:, :d])  # Cᵀ = H P (2k×d)
+        S = np.dot(Ct.take(cols, axis=1), Hb.T)  # H P Hᵀ
+        S += S.T
+        S *= 0.5
+        Sl = S.tolist()
+        keep = []
+        for j, (nu0, nu1) in enumerate(nus):
+            # Each observation's own NIS, on its 2×2 block of S (the gate's statistic).
+            a = Sl[2 * j][2 * j] + q00
+            b = Sl[2 * j][2 * j + 1] + q01
+            c = Sl[2 * j + 1][2 * j + 1] + q11
+            value = (c * nu0 * nu0 - 2.0 * b * nu0 * nu1 + a * nu1 * nu1) / (a * c - b * b)
+            nis[obs[j]] = value
+            if gate is not None and value > gate:
+                status[obs[j]] = _REJECTED
+                self._n_rejected += 1
+            else:
+                keep.append(j)
+        if not keep:
+            return
+        if len(keep) < k:
+            sel = [r for j in keep for r in (2 * j, 2 * j + 1)]
+            Ct, S = Ct[sel], S[np.ix_(sel, sel)]
+            nus = [nus[j] for j in keep]
+            obs = [obs[j] for j in keep]
+        n = len(keep)
+        ar = np.arange(n)
+        S.reshape(n, 2, n, 2)[ar, :, ar, :] += self._Q  # + blockdiag(Q, …, Q)
+        # Joseph form as in _correct_sequential: S = L Lᵀ, G = S⁻¹, E = I − S G,
+        # W = L⁻¹ E L, V Vᵀ = I − Wᵀ W, Yᵀ = Vᵀ L⁻¹ Cᵀ.
+        eye = np.eye(S.shape[0])
+        try:
+            Lc = np.linalg.cholesky(S)
+        except np.linalg.LinAlgError:
+            raise FloatingPointError("innovation covariance S is not positive definite") from None
+        Li = np.linalg.solve(Lc, eye)  # L⁻¹ (triangular)
+        G = Li.T @ Li
+        W = Li @ (eye - S @ G) @ Lc
+        V = np.linalg.cholesky(eye - W.T @ W)
+        x[:d] += np.dot(np.dot(G, np.ravel(nus)), Ct)  # x += K ν, K = C G
         x[2] = (x[2] + math.pi) % _TWO_PI - math.pi
-        self._apply_joseph(Y, Z)
-        status[known] = Status.CORRECTED
+        self._apply_joseph(np.dot(np.dot(V.T, Li), Ct))
+        status[obs] = _CORRECTED
 
     def _initialise(self, z: np.ndarray, new_ids: list[int]) -> None:
         """Append new landmarks from the inverse model (seed 000 §2.2).

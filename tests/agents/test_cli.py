@@ -193,3 +193,13 @@ def test_registry():
         parse_agent_specs("ppo:a/m.zip,ppo:b/m.zip")  # same label: ambiguous tables
     with pytest.raises(ValueError, match="is set by the caller"):
         make_env({"max_episode_steps": 3})
+
+
+def test_registry_reports_a_missing_heuristic(monkeypatch):
+    import agents.registry as registry
+
+    monkeypatch.setitem(registry._HEURISTICS, "frontier", ("agents.no_such_module", "X"))
+    env = make_env({"n_landmarks": 5, "width": 8.0, "height": 8.0})
+    with pytest.raises(ValueError, match="agent 'frontier' is not available"):
+        make_agent("frontier", env)
+    env.close()

@@ -177,6 +177,23 @@ def test_an_outlier_is_rejected_by_the_gate_and_counted(correction):
     assert f.n_rejected == 0
 
 
+@pytest.mark.parametrize("correction", ["sequential", "batch"])
+def test_a_landmark_on_the_robot_is_rejected_not_a_crash(correction):
+    # Range 0: the landmark is initialised exactly on the robot, where the bearing
+    # and H are undefined; observing it again cannot be linearised.
+    f = make(correction=correction, initial_pose_cov=np.diag([1e-4] * 3))
+    f.update([[0.0, 0.3], [2.0, 0.1]], [4, 5])
+    before = f.mean, f.cov
+    res = f.update([[0.1, 0.3]], [4])
+    assert res.status.tolist() == [REJECTED] and np.isnan(res.nis[0])
+    assert f.n_rejected == 1
+    np.testing.assert_array_equal(f.mean, before[0])
+    np.testing.assert_array_equal(f.cov, before[1])
+    # The other landmark is still corrected in the same update.
+    res = f.update([[0.1, 0.3], [2.0, 0.1]], [4, 5])
+    assert res.status.tolist() == [REJECTED, CORRECTED] and f.n_rejected == 2
+
+
 def test_without_a_gate_everything_is_applied():
     f = make(initial_pose_cov=np.diag([1e-4] * 3))
     observe(f, np.zeros(3), LANDMARKS, [0])

@@ -198,3 +198,20 @@ def test_unknown_landmark_lookup(busy_filter):
         busy_filter.landmark("0")
     mean, cov = busy_filter.landmark(np.int64(3))
     assert mean.shape == (2,) and cov.shape == (2, 2)
+
+
+@pytest.mark.parametrize("correction", ["sequential", "batch"])
+def test_a_covariance_that_lost_definiteness_is_reported_and_changes_nothing(
+    take_snapshot, same_snapshot, correction
+):
+    f = EKFSLAM(**with_(correction=correction, gate=9.0))
+    f.update([[2.0, 0.1], [3.0, -0.4], [2.5, 0.3]], [0, 3, 1])
+    # White box: corrupt landmark 3's block so that S = H P Hᵀ + Q is indefinite
+    # (a valid filter cannot get there: S ⪰ Q ≻ 0 whenever P ⪰ 0).
+    s = 3 + 2 * int(f.id_to_state[3])
+    f._P[s : s + 2, s : s + 2] = -10.0 * np.eye(2)
+    before = take_snapshot(f)
+    # Landmark 0 is corrected and landmark 1 rejected before landmark 3 fails.
+    with pytest.raises(FloatingPointError, match="not positive definite"):
+        f.update([[2.1, 0.12], [9.0, 0.0], [3.0, -0.4]], [0, 1, 3])
+    same_snapshot(before, take_snapshot(f))

@@ -149,6 +149,7 @@ def test_many_observations_in_one_update(dense_reference, correction):
     rng = np.random.default_rng(11)
     n = 30
     truth = rng.uniform(-8, 8, size=(n, 2))
+    capacity = 100  # d < the storage: the factor buffer must grow by count, not size
     hm = MEASUREMENT_MODELS["range_bearing"]
     kwargs = dict(
         alphas=ALPHAS,
@@ -156,11 +157,12 @@ def test_many_observations_in_one_update(dense_reference, correction):
         initial_pose_cov=np.diag([0.01, 0.01, 0.002]),
         correction=correction,
     )
-    f = EKFSLAM(max_landmarks=n, **kwargs)
+    f = EKFSLAM(max_landmarks=capacity, **kwargs)
     ref = dense_reference.DenseEKFSLAM("odometry", "range_bearing", **kwargs)
     pose = np.zeros(3)
     chol_q = np.linalg.cholesky(Q["range_bearing"])
-    for ids in (np.arange(n), rng.permutation(n)[:25], rng.permutation(n)):
+    schedule = (np.arange(12), rng.permutation(12)[:10], np.arange(n), rng.permutation(n)[:25])
+    for ids in (*schedule, rng.permutation(n)):
         u = random_control(rng, "odometry")
         pose = MOTION_MODELS["odometry"].motion(pose, u)
         for g in (f, ref):
