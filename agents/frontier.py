@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import dataclasses
 import math
 from dataclasses import dataclass
 from typing import Any
@@ -20,6 +19,7 @@ from agents.navigation import (
     box_sum,
     dijkstra,
     is_truthy,
+    make_params,
     path_from_parents,
     unicycle_control,
 )
@@ -40,7 +40,7 @@ class FrontierParams:
     range_margin: float = 0.4  # m, a cell is swept when its centre is this far inside range
     fov_margin: float = math.radians(4.0)  # rad, and this far inside the FOV edges
     gain_radius: float = 1.5  # m, half-side of the window whose unswept area a target gains
-    gain_weight: float = 0.6  # m of path traded per m² of unswept area at the target
+    gain_weight: float = 1.5  # m of path traded per m² of unswept area at the target
     min_gain: float = 1.0  # m², a target with less unswept area around it is done
     turn_weight: float = 1.0  # m of path traded per rad of turn toward a target
     switch_margin: float = 1.0  # m, a new target must score this much better than the current
@@ -93,20 +93,27 @@ class FrontierParams:
             value = getattr(self, name)
             if not isinstance(value, int) or value < 1:
                 raise ValueError(f"FrontierParams.{name} must be an int >= 1, got {value!r}")
+        for name in (
+            "safety_margin",
+            "soft_clearance",
+            "proximity_cost",
+            "range_margin",
+            "fov_margin",
+            "gain_weight",
+            "min_gain",
+            "turn_weight",
+            "switch_margin",
+            "useful_ratio",
+            "uncertainty_weight",
+        ):
+            value = getattr(self, name)
+            if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):
+                raise ValueError(f"FrontierParams.{name} must be finite and >= 0, got {value!r}")
         if self.loop_close_done_std > self.loop_close_std:
             raise ValueError("FrontierParams.loop_close_done_std must be <= loop_close_std")
         lo, hi = self.view_distance
         if not 0.0 <= lo < hi:
             raise ValueError("FrontierParams.view_distance must be (lo, hi), 0 <= lo < hi")
-
-
-def make_params(cls: type, params: dict[str, Any]) -> Any:
-    """``cls(**params)`` with a ``TypeError`` that lists the valid names."""
-    valid = {f.name for f in dataclasses.fields(cls)}
-    unknown = sorted(set(params) - valid)
-    if unknown:
-        raise TypeError(f"unknown {cls.__name__} {unknown}; valid: {sorted(valid)}")
-    return cls(**params)
 
 
 class FrontierAgent:
@@ -115,20 +122,27 @@ class FrontierAgent:
     Each step the agent sweeps a coarse coverage grid with the sensor footprint (range,
     FOV, occlusion by the known map) seen from the filter's *estimated* pose. It plans
     with Dijkstra on a grid of the known map (walls and obstacles inflated by the robot
-    radius plus a margin, and the estimated landmark posts) to the frontier target
-    that minimises path length − ``gain_weight``·(unswept area around it), follows the
-    path with pure pursuit, and on arrival turns to face the unswept cells.
+    radius plus ``safety_margin``, and the estimated landmark posts) to the frontier
+    target that minimises path length − ``gain_weight``·(unswept area around it) +
+    ``turn_weight``·(turn toward it), keeps its target unless another is
+    ``switch_margin`` better, follows the path with pure pursuit at a gentle turn rate
+    (``turn_limit``: rotation is what makes odometry drift) and, on arrival, turns to
+    face what is left unswept there (or gives it up, if it stays out of sight).
 
     When the pose uncertainty σ = √(Σxx + Σyy) from ``filter.pose_cov`` exceeds
-    ``loop_close_std`` it closes a loop instead: it drives to a viewpoint of the known
-    landmark that is cheapest to reach and best known (path + weight·landmark σ), and
-    faces it, until σ falls below ``loop_close_done_std``. Once nothing is left to
-    sweep it revisits the least certain landmarks.
+    ``loop_close_std`` it closes a loop instead: it drives to a viewpoint of a known
+    landmark that is known much better than the pose (σ below ``useful_ratio``·σ
+    pose), within ``max_detour``, cheapest to reach and best known, and faces it,
+    until σ falls below ``loop_close_done_std`` (or ``loop_close_timeout`` passes: it
+    then explores on and retries only once σ has grown by ``loop_close_step``). Once
+    nothing is left to sweep it revisits the least certain landmarks in turn. If it
+    runs into something the map does not show (it commands motion and the estimate
+    does not move), it remembers an obstacle there and backs off.
 
     It reads only the belief (``env.unwrapped.filter``), the known map
     (``raw_env.layout`` obstacles and walls) and the env's configuration; never the
-    true pose or landmark positions. Deterministic; ``seed`` seeds its own generator
-    (used to break ties when it has to back off an obstacle).
+    true pose or landmark positions. Deterministic given ``seed``, which seeds its own
+    generator (used to pick a side when it backs off something it ran into).
 
     Args:
         env: a ``slam_env/ActiveSLAM-v0`` env (continuous actions).
@@ -185,7 +199,6 @@ class FrontierAgent:
         )
         cg = self._memory.coverage.grid
         self._gain_cells = max(1, round(p.gain_radius / cg.resolution))
-        self._abandoned = np.zeros(cg.shape, dtype=bool)
         self._mode = EXPLORE
         self._follower: PathFollower | None = None
         self._look_at: np.ndarray | None = None
@@ -212,6 +225,16 @@ class FrontierAgent:
     def memory(self) -> ExplorationMemory | None:
         """The episode's maps (planning grid, coverage)."""
         return self._memory
+
+    @property
+    def goal(self) -> np.ndarray | None:
+        """(2,) the position (m, estimated frame) the agent is driving to, or None."""
+        return None if self._follower is None else self._follower.goal
+
+    @property
+    def target_landmark(self) -> int | None:
+        """The landmark ID a loop closure or revisit is heading for, or None."""
+        return None if self._target_landmark < 0 else self._target_landmark
 
     # ------------------------------------------------------------------ decision
     def _act(self) -> np.ndarray:
@@ -287,7 +310,7 @@ class FrontierAgent:
         return off_path > 1.0
 
     def _unswept(self) -> np.ndarray:
-        return self._memory.coverage.unswept & ~self._abandoned
+        return self._memory.coverage.unswept
 
     def _window(self, point: np.ndarray) -> tuple[slice, slice]:
         """The coverage cells within ``gain_radius`` (a square) of ``point``."""
@@ -357,7 +380,7 @@ class FrontierAgent:
         gain = mem.on_planning_grid(box_sum(unswept, self._gain_cells) * res * res)  # m²
         ok = np.isfinite(dist) & (gain >= p.min_gain)
         if not ok.any():
-            self._abandoned |= unswept  # what is left cannot be reached
+            self._memory.coverage.abandoned |= unswept  # what is left cannot be reached
             return None
         dx = grid.xs[None, :] - pose[0]
         dy = grid.ys[:, None] - pose[1]
@@ -428,8 +451,7 @@ class FrontierAgent:
             _, left = self._follower.progress(pose)
             goal = self._follower.goal
             if left > p.goal_tolerance and math.dist(pose[:2], goal) > p.goal_tolerance:
-                action = self._follower.action(pose)
-                return action
+                return self._follower.action(pose)
             self._follower = None
             self._on_arrival(pose, goal)
         if self._look_at is not None:
@@ -457,7 +479,7 @@ class FrontierAgent:
         if self._mode == EXPLORE:
             if self._gain_at(self._look_at) >= self.params.min_gain:
                 # Seen from its viewpoint and still unswept (occluded): stop chasing it.
-                self._abandoned[self._window(self._look_at)] = True
+                self._memory.coverage.abandoned[self._window(self._look_at)] = True
         elif self._target_landmark >= 0:
             self._tried.add(self._target_landmark)
         self._look_at = None

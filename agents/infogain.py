@@ -9,7 +9,6 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from agents.frontier import make_params
 from agents.navigation import (
     ControllerParams,
     EpisodeWatch,
@@ -20,6 +19,7 @@ from agents.navigation import (
     box_sum,
     dijkstra,
     is_truthy,
+    make_params,
     nearest_passable,
 )
 from slam_env.ekf.models import MEASUREMENT_MODELS
@@ -52,7 +52,7 @@ class InfoGainParams:
     replan_interval: int = 2  # env steps between decisions (the chosen primitive is held)
     planning_resolution: float = 0.25  # m, planning grid cell
     coverage_resolution: float = 0.5  # m, coverage grid cell
-    safety_margin: float = 0.1  # m, inflation of the known map beyond the robot radius
+    safety_margin: float = 0.15  # m, inflation of the known map beyond the robot radius
     soft_clearance: float = 0.8  # m, the frontier distance field keeps this far from obstacles
     proximity_cost: float = 3.0  # extra cost factor of the distance field near obstacles
     range_margin: float = 0.4  # m, observations and sweeps use max_range − this
@@ -70,6 +70,7 @@ class InfoGainParams:
     reversal_penalty: float = 2.0  # nats for reversing the previous turn direction on the spot
     guide_length: float = 4.0  # m of frontier-field descent the guided candidate follows
     lookahead: float = 0.6  # m, pure-pursuit look-ahead of the guided candidate
+    escape_lookahead: float = 0.3  # m, look-ahead when hemmed in (tight path following)
     turn_limit: float = 0.6  # fraction of the max turn rate the guided candidate uses
     stuck_steps: int = 4  # steps of commanded motion without progress before backing off
     recovery_steps: int = 5  # steps of backing off when stuck
@@ -105,6 +106,7 @@ class InfoGainParams:
             "give_up_radius",
             "guide_length",
             "lookahead",
+            "escape_lookahead",
             "turn_limit",
         ):
             value = getattr(self, name)
@@ -135,26 +137,40 @@ class InfoGainParams:
 class InfoGainAgent:
     """Greedy expected-information-gain exploration (active SLAM, one-step lookahead).
 
-    Each decision scores a fixed set of motion primitives — (speed, turn) commands held
-    for ``horizon`` steps — from the filter's *estimated* pose, and executes the first
-    step of the best one (receding horizon). A primitive's score, in nats:
+    Every ``replan_interval`` steps the agent scores a set of candidate motions from
+    the filter's *estimated* pose and executes the best one until the next decision
+    (receding horizon). The candidates are the fixed ``primitives`` — (speed, turn)
+    commands held for ``horizon`` steps — plus one *guided* candidate: pure pursuit
+    down the frontier distance field (below), simulated in closed loop. A candidate's
+    score, in nats, is the sum of:
 
     * **belief information**: on ``filter.copy()``, the EKF prediction with the
-      odometry the primitive would produce, then, at the ``observe_at`` steps, the
-      update with the expected observations of the known landmarks in range, FOV and
-      line of sight (zero innovation: only the covariance changes); the score is the
-      entropy removed, ½·(log det P_now − log det P_after). Turning costs heading
-      certainty and seeing well-known landmarks closes loops, both through this term;
+      odometry the motion would produce, then, at the ``observe_at`` steps, the update
+      with the expected observations of the known landmarks in range, FOV and line of
+      sight (zero innovation: only the covariance changes); the score is the entropy
+      removed, ½·(log det P_now − log det P_after). Turning costs heading certainty,
+      and seeing well-known landmarks closes loops, both through this term;
     * **discovery**: the coverage-grid area the sensor would sweep for the first time
-      (footprints at the observation steps) × the expected landmark density in the
-      unswept area × the nats a discovered landmark is worth;
-    * **frontier progress**: ``frontier_weight`` × the decrease of the path distance
-      (a Dijkstra field on the known map) to the nearest frontier — unswept area — so
-      that the agent heads somewhere useful when nothing is in view; once everything
-      is swept, the field leads to the least certain landmarks instead;
+      (the footprint at the end of the horizon) × the expected landmark density in the
+      unswept area × the nats a discovered landmark is worth (``discovery_nats``, by
+      default the slot's prior entropy minus that of an estimate as uncertain as the
+      robot's position);
+    * **frontier progress**: ``frontier_weight`` × the decrease of the path distance to
+      the nearest frontier (a Dijkstra field on the known map, refreshed every
+      ``field_interval`` steps; facing downhill counts as ``heading_lookahead`` nearer),
+      so that the agent heads somewhere useful when nothing is in view; once
+      everything is swept the field leads to the least certain landmarks instead;
     * **collision**: −``collision_penalty`` per predicted pose inside the known map's
-      obstacles or the estimated landmark posts, inflated by the robot radius and a
-      margin.
+      obstacles or the estimated landmark posts, inflated by the robot radius and
+      ``safety_margin``.
+
+    Keeping the previous candidate earns ``keep_bonus`` and reversing a turn on the
+    spot costs ``reversal_penalty`` (no dithering). When every moving candidate would
+    collide (a narrow passage) the agent follows the field's descent path closely
+    instead. Unswept cells that stay out of sight while the robot spends
+    ``give_up_steps`` next to them are abandoned, and something the robot runs into
+    that the map does not show (it commands motion and the estimate does not move) is
+    remembered as an obstacle and backed away from.
 
     It reads only the belief (``env.unwrapped.filter``), the known map
     (``raw_env.layout`` obstacles and walls) and the env's configuration; never the
@@ -245,8 +261,9 @@ class InfoGainAgent:
 
     @property
     def last_scores(self) -> np.ndarray | None:
-        """(n_primitives, 4) the terms of the last decision: information, discovery,
-        frontier progress, collision (nats); None before the first decision."""
+        """(n_candidates, 4) the terms of the last decision — information, discovery,
+        frontier progress, collision (nats) — for the primitives in order, then the
+        guided candidate when there was one; None before the first decision."""
         return None if self._last_scores is None else self._last_scores.copy()
 
     # ------------------------------------------------------------------ decision
@@ -287,9 +304,16 @@ class InfoGainAgent:
             turns = np.array([float(a[1]) for a in actions])
             total[turns * last_turn < 0.0] -= p.reversal_penalty
         self._last_scores = scores
+        self._held = 1
+        moving = np.array([abs(float(a[0])) > 0.0 for a in actions])
+        if follower is not None and not (moving & (scores[:, 3] == 0.0)).any():
+            # Hemmed in (every motion would touch the inflated map): follow the field's
+            # descent path closely — it runs through free cells — until out.
+            self._follower = PathFollower(follower.points, p.escape_lookahead, self._control)
+            self._choice = len(p.primitives)
+            return self._follower.action(pose)
         self._choice = int(np.argmax(total))
         self._follower = follower if self._choice == len(p.primitives) else None
-        self._held = 1
         return actions[self._choice]
 
     def _command(self, pose: np.ndarray) -> np.ndarray:

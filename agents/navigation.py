@@ -12,7 +12,12 @@ the true pose. Pure numpy and the standard library.
 - :func:`unicycle_control` maps (estimated pose, waypoint) to an action in [−1, 1]²;
   :class:`PathFollower` runs it along a path with a look-ahead point (pure pursuit).
 - :func:`sensor_footprint` and :class:`CoverageMap`: the cells a range-and-FOV sensor
-  sweeps from a pose, with occlusion by the known map — vectorised.
+  sweeps from a pose, with occlusion by the known map — vectorised; :func:`box_sum`
+  counts cells in windows (the unswept area around a candidate target).
+- Agent plumbing: :class:`ExplorationMemory` (an episode's grids, inflated by the robot
+  and the estimated landmark posts), :class:`EpisodeWatch` (notices a new episode
+  without ``episode_start``), :class:`StuckDetector` (blocked by something unmapped),
+  :func:`belief_env` (checks the env the agents need), :func:`make_params`.
 
 Conventions: a grid has ``shape = (ny, nx)``; cell ``(i, j)`` (row ``i`` along y,
 column ``j`` along x) covers ``[j·res, (j+1)·res] × [i·res, (i+1)·res]`` and its
@@ -21,15 +26,18 @@ centre is ``((j + ½)·res, (i + ½)·res)``. Flat indices are ``i·nx + j``.
 
 from __future__ import annotations
 
+import dataclasses
 import heapq
 import math
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
+from slam_env.config import EnvConfig
 from slam_env.geometry import wrap_angle
-from slam_env.layouts import DEFAULT_WALL_THICKNESS, Layout
+from slam_env.layouts import DEFAULT_WALL_THICKNESS, LANDMARK_POST_RADIUS, Layout
 
 SQRT2 = math.sqrt(2.0)
 
@@ -225,7 +233,8 @@ def dijkstra(
         resolution: the cell side; distances are in its unit (m).
         cell_cost: optional (ny, nx) multiplier ≥ 1 of the length of a move *into* a
             cell (e.g. to keep away from obstacles).
-        max_cost: stop expanding beyond this distance.
+        max_cost: stop expanding beyond this distance (farther cells hold upper
+            bounds or inf).
 
     Returns:
         ``dist`` (ny, nx) float (inf where unreached) and ``parent`` (ny·nx,) int
@@ -256,8 +265,10 @@ def dijkstra(
     moves = _moves(w)
     while heap:
         d, k = pop(heap)
-        if d > dist[k] or d > max_cost:
+        if d > dist[k]:
             continue
+        if d > max_cost:
+            break
         for off, length, a, b in moves:
             m = k + off
             if not free[m] or (a and not (free[k + a] and free[k + b])):
@@ -641,7 +652,17 @@ def box_sum(mask: np.ndarray, radius: int) -> np.ndarray:
 # --------------------------------------------------------------------------- agent plumbing
 
 
-def belief_env(env: object) -> object:
+def make_params(cls: type, params: dict[str, Any]) -> Any:
+    """``cls(**params)`` for a parameter dataclass, with a ``TypeError`` that lists the
+    valid names for an unknown one."""
+    valid = {f.name for f in dataclasses.fields(cls)}
+    unknown = sorted(set(params) - valid)
+    if unknown:
+        raise TypeError(f"unknown {cls.__name__} {unknown}; valid: {sorted(valid)}")
+    return cls(**params)
+
+
+def belief_env(env: Any) -> Any:
     """The ``slam_env/ActiveSLAM-v0`` env under ``env``'s wrappers: the object whose
     ``filter`` holds the belief and whose ``raw_env`` holds the known map. Raises
     ``TypeError`` for anything else (the heuristics plan on the EKF belief) and for a
@@ -682,9 +703,10 @@ class EpisodeWatch:
         self._n_landmarks = 0
         self._acted = False
 
-    def is_new(self, base: object) -> bool:
-        layout = base.raw_env.layout  # type: ignore[attr-defined]
-        f = base.filter  # type: ignore[attr-defined]
+    def is_new(self, base: Any) -> bool:
+        """Whether ``base`` (the ActiveSLAM env) started an episode since :meth:`mark`."""
+        layout = base.raw_env.layout
+        f = base.filter
         new = (
             layout is not self._layout
             or f is not self._filter
@@ -693,11 +715,11 @@ class EpisodeWatch:
         )
         return bool(new)
 
-    def mark(self, base: object) -> None:
+    def mark(self, base: Any) -> None:
         """Record the state after the agent chose an action."""
-        self._layout = base.raw_env.layout  # type: ignore[attr-defined]
-        self._filter = base.filter  # type: ignore[attr-defined]
-        self._n_landmarks = int(base.filter.n_landmarks)  # type: ignore[attr-defined]
+        self._layout = base.raw_env.layout
+        self._filter = base.filter
+        self._n_landmarks = int(base.filter.n_landmarks)
         self._acted = True
 
     def forget(self) -> None:
@@ -780,7 +802,7 @@ class ExplorationMemory:
     def __init__(
         self,
         layout: Layout,
-        config: object,
+        config: EnvConfig,
         *,
         planning_resolution: float = 0.25,
         coverage_resolution: float = 0.5,
@@ -790,11 +812,9 @@ class ExplorationMemory:
         range_margin: float = 0.4,
         fov_margin: float = math.radians(4.0),
     ) -> None:
-        from slam_env.layouts import LANDMARK_POST_RADIUS
-
-        wall = float(config.world.wall_thickness)  # type: ignore[attr-defined]
-        robot = config.robot  # type: ignore[attr-defined]
-        sensor = config.sensor  # type: ignore[attr-defined]
+        wall = float(config.world.wall_thickness)
+        robot = config.robot
+        sensor = config.sensor
         self.layout = layout
         self.grid = GridMap.from_layout(layout, planning_resolution, wall)
         self.coverage = CoverageMap(
@@ -836,21 +856,6 @@ class ExplorationMemory:
         for x, y, r in self._bumps:
             free &= self.grid.passable(-math.inf, np.array([[x, y]]), r)
         self.free = free
-
-    def coarse_free_and_cost(self) -> tuple[np.ndarray, np.ndarray]:
-        """The configuration space and the proximity cost pooled onto the coverage grid
-        (a coarse cell is free if any planning cell in it is; its cost is their
-        least): a cheap grid for distance fields that only guide."""
-        cg = self.coverage.grid
-        free = np.zeros(cg.shape, dtype=bool)
-        cost = np.full(cg.shape, np.inf)
-        ci = self.cov_rows[:, None]
-        cj = self.cov_cols[None, :]
-        ci, cj = np.broadcast_arrays(ci, cj)
-        np.logical_or.at(free, (ci, cj), self.free)
-        np.minimum.at(cost, (ci, cj), np.where(self.free, self.cell_cost, np.inf))
-        cost[~np.isfinite(cost)] = 1.0
-        return free, cost
 
     def on_planning_grid(self, coverage_values: np.ndarray) -> np.ndarray:
         """Resample a (coverage-grid) array onto the planning grid."""

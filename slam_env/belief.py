@@ -147,35 +147,37 @@ class EgocentricEncoding:
         self.space = spaces.Box(low, high, dtype=np.float32)
 
     def encode(
-        self,
-        pose: np.ndarray,
-        pose_cov: np.ndarray,
-        state_to_id: np.ndarray,
-        landmark_means: np.ndarray,
-        landmark_covs: np.ndarray,
+        self, mean: np.ndarray, cov: np.ndarray, state_to_id: np.ndarray
     ) -> tuple[np.ndarray, bool]:
+        """Encode the filter's state; returns the observation and whether it clipped."""
         g = self.geometry
-        x, y, theta = (float(v) for v in pose)
+        x, y, theta = mean[:3].tolist()
         c, s = math.cos(theta), math.sin(theta)
         feat = np.zeros(7 + 4 * g.max_landmarks, dtype=np.float64)
-        feat[0] = x / g.width
-        feat[1] = y / g.height
-        feat[2] = c
-        feat[3] = s
-        stds = np.sqrt(np.maximum(np.diagonal(pose_cov)[:3], 0.0))
-        feat[4] = math.tanh(stds[0] / POSITION_STD_SCALE)
-        feat[5] = math.tanh(stds[1] / POSITION_STD_SCALE)
-        feat[6] = math.tanh(stds[2] / HEADING_STD_SCALE)
+        diag = np.maximum(cov.diagonal(), 0.0)
+        sx, sy, sth = np.sqrt(diag[:3]).tolist()
+        feat[:7] = (
+            x / g.width,
+            y / g.height,
+            c,
+            s,
+            math.tanh(sx / POSITION_STD_SCALE),
+            math.tanh(sy / POSITION_STD_SCALE),
+            math.tanh(sth / HEADING_STD_SCALE),
+        )
         ids = np.asarray(state_to_id, dtype=np.int64)
         if ids.size:
-            dx = landmark_means[:, 0] - x
-            dy = landmark_means[:, 1] - y
-            base = 7 + 4 * ids
-            feat[base] = 1.0
-            feat[base + 1] = (c * dx + s * dy) / g.max_range
-            feat[base + 2] = (-s * dx + c * dy) / g.max_range
-            trace = landmark_covs[:, 0, 0] + landmark_covs[:, 1, 1]
-            feat[base + 3] = np.tanh(np.sqrt(np.maximum(trace, 0.0)) / POSITION_STD_SCALE)
-        clipped_feat = np.clip(np.nan_to_num(feat), self._low, self._high)
-        clipped = not np.array_equal(clipped_feat, feat)  # also true for any NaN
-        return clipped_feat.astype(np.float32), clipped
+            rel = mean[3:].reshape(-1, 2) - (x, y)
+            rows = np.empty((ids.size, 4))
+            rows[:, 0] = 1.0
+            # The robot frame, R(θ)ᵀ (m − t), scaled by the sensor range.
+            k = 1.0 / g.max_range
+            rows[:, 1:3] = np.dot(rel, ((c * k, -s * k), (s * k, c * k)))
+            rows[:, 3] = np.tanh(np.sqrt(diag[3::2] + diag[4::2]) / POSITION_STD_SCALE)
+            feat[7:].reshape(-1, 4)[ids] = rows
+        clipped = not np.isfinite(feat).all()
+        if clipped:  # a diverged filter: report it, never hand out a NaN
+            feat = np.nan_to_num(feat)
+        out = np.minimum(np.maximum(feat, self._low), self._high)
+        clipped = clipped or not np.array_equal(out, feat)
+        return out.astype(np.float32), clipped

@@ -192,6 +192,43 @@ class RewardConfig:
 
 
 @dataclass(frozen=True)
+class FaultConfig:
+    """Injected faults for robustness studies, all off by default (see
+    :mod:`slam_env.faults`). Probabilities are per env step."""
+
+    outlier_rate: float = 0.0  # a spurious detection with a wrong (seen) landmark ID
+    scan_dropout: float = 0.0  # the whole scan is lost
+    odometry_dropout: float = 0.0  # the odometry reads zero motion
+    odometry_bias: tuple[float, ...] | None = None  # added to every reading, model units
+    kidnap_rate: float = 0.0  # the robot is carried to a random free pose
+
+    def __post_init__(self) -> None:
+        for name in ("outlier_rate", "scan_dropout", "odometry_dropout", "kidnap_rate"):
+            value = getattr(self, name)
+            _check_finite("FaultConfig", **{name: value})
+            if not 0.0 <= value <= 1.0:
+                raise ValueError(f"FaultConfig.{name} must be in [0, 1], got {value}")
+        if self.odometry_bias is not None:
+            if len(self.odometry_bias) not in (2, 3):
+                raise ValueError(
+                    "FaultConfig.odometry_bias must have 3 entries (odometry model) or 2 "
+                    f"(velocity model), got {len(self.odometry_bias)}"
+                )
+            for i, b in enumerate(self.odometry_bias):
+                _check_finite("FaultConfig", **{f"odometry_bias[{i}]": b})
+
+    @property
+    def any(self) -> bool:
+        return bool(
+            self.outlier_rate
+            or self.scan_dropout
+            or self.odometry_dropout
+            or self.kidnap_rate
+            or self.odometry_bias is not None
+        )
+
+
+@dataclass(frozen=True)
 class EnvConfig:
     """Everything the env needs. ``layout`` (a :class:`slam_env.layouts.Layout`, a dict
     or a JSON/YAML path) overrides ``world.preset`` with a user-given world."""
@@ -201,6 +238,7 @@ class EnvConfig:
     sensor: SensorConfig = field(default_factory=SensorConfig)
     odometry: OdometryConfig = field(default_factory=OdometryConfig)
     reward: RewardConfig = field(default_factory=RewardConfig)
+    faults: FaultConfig = field(default_factory=FaultConfig)
     dt: float = 0.2  # s, one env step (policy rate 5 Hz)
     physics_substeps: int = 4  # pymunk steps per env step
     action_type: str = "continuous"  # or "discrete": motion primitives
@@ -214,9 +252,17 @@ class EnvConfig:
             ("sensor", SensorConfig),
             ("odometry", OdometryConfig),
             ("reward", RewardConfig),
+            ("faults", FaultConfig),
         ):
             if not isinstance(getattr(self, name), cls):
                 raise TypeError(f"EnvConfig.{name} must be a {cls.__name__}")
+        bias = self.faults.odometry_bias
+        dims = 3 if self.odometry.motion_model == "odometry" else 2
+        if bias is not None and len(bias) != dims:
+            raise ValueError(
+                f"odometry_bias needs {dims} entries for motion_model="
+                f"{self.odometry.motion_model!r}, got {len(bias)}"
+            )
         _check_positive("EnvConfig", dt=self.dt)
         _check_int("EnvConfig", 1, physics_substeps=self.physics_substeps)
         _check_choice("EnvConfig", "action_type", self.action_type, ACTION_TYPES)
@@ -230,6 +276,7 @@ _SECTIONS: dict[str, type] = {
     "sensor": SensorConfig,
     "odometry": OdometryConfig,
     "reward": RewardConfig,
+    "faults": FaultConfig,
 }
 
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from functools import partial
 from typing import Any, SupportsFloat
 
 import gymnasium as gym
@@ -27,6 +28,10 @@ def unpack_detections(obs: dict[str, np.ndarray]) -> tuple[np.ndarray, np.ndarra
     """The valid detections of a raw observation: ``z`` (k, 2) float64 and ``ids`` (k,)
     int64, in the observation's order (ascending ID)."""
     valid = obs["mask"] > 0.5
+    k = int(np.count_nonzero(valid))
+    if valid[:k].all():  # the env's layout: detections first, then padding
+        z = obs["detections"][: 2 * k].reshape(k, 2).astype(np.float64)
+        return z, obs["ids"][:k].astype(np.int64)
     z = obs["detections"].reshape(-1, 2)[valid].astype(np.float64)
     return z, obs["ids"][valid].astype(np.int64)
 
@@ -165,6 +170,18 @@ class LandmarksEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
             det_low = np.full((d, 2), -reach, dtype=np.float32)
             det_high = np.full((d, 2), reach, dtype=np.float32)
         self._det_low, self._det_high = det_low, det_high
+        # The same bounds as Python floats, for clipping the few values of a step
+        # without numpy calls (clipping in float64 to float32 bounds, then rounding to
+        # float32, equals rounding then clipping: the rounding is monotonic).
+        self._odometry_bounds = tuple(
+            zip(self._odometry_low.tolist(), self._odometry_high.tolist(), strict=True)
+        )
+        self._detection_bounds = tuple(zip(det_low[0].tolist(), det_high[0].tolist(), strict=True))
+        # Padding of an empty observation, and the mask of each detection count k: each
+        # step fills or takes a copy (cheaper than building them).
+        self._empty_detections = np.zeros(2 * d, dtype=np.float32)
+        self._empty_ids = np.full(d, -1.0, dtype=np.float32)
+        self._masks = tuple((np.arange(d) < k).astype(np.float32) for k in range(d + 1))
         return spaces.Dict(
             {
                 "odometry": spaces.Box(-odo_high, odo_high, dtype=np.float32),
@@ -191,6 +208,7 @@ class LandmarksEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         self._landmark_positions = self._world.landmark_positions
         self._landmark_ids = self._world.landmark_ids
         self._seen[:] = False
+        self._seen_ids = np.flatnonzero(self._seen)
         self._last_collision = False
         self.belief_overlay = None
         pose = self._world.pose
@@ -200,7 +218,7 @@ class LandmarksEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
 
         detections = self._sense(pose)
         self._mark_seen(detections)
-        zero_control = np.zeros(self.odometry.dim)
+        zero_control = (0.0,) * self.odometry.dim
         obs = self._get_obs(zero_control, detections)
         info = self._get_info(pose, zero_control, {"new_landmarks": 0.0, "collision": 0.0})
         if self.render_mode == "human":
@@ -227,18 +245,19 @@ class LandmarksEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         if self.render_mode is not None:
             self._trail.append((pose1[0], pose1[1]))
 
-        # Observe: odometry of the motion just made, then the landmark sensor.
-        true_control = self.odometry.true_control(pose0, pose1)
-        control = self.odometry.perturb(true_control, self.np_random)
+        # Observe: odometry of the motion just made, then the landmark sensor. The
+        # private sensor methods skip the checks of the public ones (the env's inputs
+        # are well-formed by construction) and work on plain floats.
+        true_control = self.odometry._true_control(pose0, pose1)
+        control = self.odometry._perturb(true_control, self.np_random)
         detections = self._sense(pose1)
         n_new = self._mark_seen(detections)
 
         # Reward terms, then episode end.
-        terms = {
-            "new_landmarks": cfg.reward.new_landmark_bonus * n_new,
-            "collision": -cfg.reward.collision_penalty if collided else 0.0,
-        }
-        reward = float(sum(terms.values()))
+        new_term = cfg.reward.new_landmark_bonus * n_new
+        collision_term = -cfg.reward.collision_penalty if collided else 0.0
+        terms = {"new_landmarks": new_term, "collision": collision_term}
+        reward = 0.0 + new_term + collision_term  # what sum(terms.values()) adds
         terminated = bool(cfg.terminate_when_all_detected and self._all_seen())
         obs = self._get_obs(control, detections)
         info = self._get_info(pose1, true_control, terms)
@@ -276,44 +295,58 @@ class LandmarksEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         return self.world.layout
 
     def _sense(self, pose: tuple[float, float, float]) -> Detections:
-        detections = self.sensor.sense(
-            pose,
+        x, y, theta = pose
+        detections = self.sensor._sense(
+            x,
+            y,
+            theta,
             self._landmark_positions,
             self._landmark_ids,
             self.np_random,
-            self._world.line_of_sight,
+            partial(self._world._landmark_visible_from, x, y),
         )
         self._last_detections = detections
         return detections
 
     def _mark_seen(self, detections: Detections) -> int:
-        ids = detections.ids
-        if ids.size == 0:
+        if not len(detections):
             return 0
-        n_new = int(np.count_nonzero(~self._seen[ids]))
-        self._seen[ids] = True
-        return n_new
+        seen = self._seen
+        new = [i for i in detections.ids.tolist() if not seen[i]]
+        if new:
+            seen[new] = True
+            self._seen_ids = np.flatnonzero(seen)  # info["seen_ids"] copies it
+        return len(new)
 
     def _all_seen(self) -> bool:
         return bool(np.all(self._seen[self._landmark_ids]))
 
-    def _get_obs(self, control: np.ndarray, detections: Detections) -> dict[str, np.ndarray]:
-        d = self.max_detections
-        k = len(detections.ids)
-        det = np.zeros((d, 2), dtype=np.float32)
-        ids = np.full(d, -1.0, dtype=np.float32)
-        mask = np.zeros(d, dtype=np.float32)
+    def _get_obs(
+        self, control: tuple[float, ...], detections: Detections
+    ) -> dict[str, np.ndarray]:
+        k = len(detections)
+        det = self._empty_detections.copy()
+        ids = self._empty_ids.copy()
+        mask = self._masks[k].copy()
         if k:
-            rows = det[:k]
-            rows[:] = detections.z
-            np.maximum(rows, self._det_low[:k], out=rows)
-            np.minimum(rows, self._det_high[:k], out=rows)
+            # Clipped with comparisons: builtin min/max calls cost several times more.
+            (a_lo, a_hi), (b_lo, b_hi) = self._detection_bounds
+            det[: 2 * k] = [
+                v
+                for a, b in detections.z.tolist()
+                for v in (
+                    a_lo if a < a_lo else a_hi if a > a_hi else a,
+                    b_lo if b < b_lo else b_hi if b > b_hi else b,
+                )
+            ]
             ids[:k] = detections.ids
-            mask[:k] = 1.0
-        odometry = np.minimum(np.maximum(control, self._odometry_low), self._odometry_high)
+        odometry = [
+            lo if u < lo else hi if u > hi else u
+            for u, (lo, hi) in zip(control, self._odometry_bounds, strict=True)
+        ]
         return {
-            "odometry": odometry.astype(np.float32),
-            "detections": det.ravel(),
+            "odometry": np.array(odometry, dtype=np.float32),
+            "detections": det,
             "ids": ids,
             "mask": mask,
         }
@@ -326,9 +359,9 @@ class LandmarksEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
             "landmark_positions": self._landmark_positions.copy(),
             "landmark_ids": self._landmark_ids.copy(),
             "collision": self._last_collision,
-            "seen_ids": np.flatnonzero(self._seen),
-            "odometry_true": np.asarray(true_control, dtype=np.float64),
-            "reward_terms": dict(terms),
+            "seen_ids": self._seen_ids.copy(),
+            "odometry_true": np.array(true_control, dtype=np.float64),
+            "reward_terms": terms,  # a new dict from each step and reset
         }
 
     def render_frame(self):

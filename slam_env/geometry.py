@@ -17,7 +17,16 @@ def wrap_angle(angle):
     """Wrap an angle (scalar or array, rad) to [−π, π), half-open even at round-off."""
     if isinstance(angle, np.ndarray):
         return np.minimum((angle + math.pi) % TWO_PI - math.pi, _BELOW_PI)
-    return min((float(angle) + math.pi) % TWO_PI - math.pi, _BELOW_PI)
+    return wrap_float(float(angle))
+
+
+def wrap_float(angle: float) -> float:
+    """:func:`wrap_angle` of a Python float, without the type dispatch (for hot loops).
+    Python's float ``%`` and numpy's ``remainder`` round alike, so this and the array
+    form of :func:`wrap_angle` agree bit for bit."""
+    wrapped = (angle + math.pi) % TWO_PI - math.pi
+    # min(wrapped, _BELOW_PI) as a comparison (a builtin call costs more); NaN passes.
+    return _BELOW_PI if wrapped > _BELOW_PI else wrapped
 
 
 def rotation(theta: float) -> np.ndarray:

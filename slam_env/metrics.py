@@ -32,11 +32,32 @@ def nees(error, cov) -> float:
     error = np.asarray(error, dtype=np.float64)
     if not error.any():
         return 0.0
+    if error.shape == (3,):
+        return _nees3(error.tolist(), np.asarray(cov, dtype=np.float64).tolist())
     try:
         solved = np.linalg.solve(np.asarray(cov, dtype=np.float64), error)
     except np.linalg.LinAlgError:
         return math.inf
     return float(error @ solved)
+
+
+def _nees3(e: list[float], p: list[list[float]]) -> float:
+    """eᵀ P⁻¹ e for 3×3 P through its adjugate: the per-step pose NEES without the
+    overhead of a LAPACK call on a 3×3."""
+    (a, b, c), (_, d, f), (_, _, g) = p  # symmetric: only the upper triangle is read
+    cof_a = d * g - f * f
+    cof_b = c * f - b * g
+    cof_c = b * f - c * d
+    det = a * cof_a + b * cof_b + c * cof_c
+    if not det > 0.0:
+        return math.inf
+    quad = (
+        cof_a * e[0] * e[0]
+        + (a * g - c * c) * e[1] * e[1]
+        + (a * d - b * b) * e[2] * e[2]
+        + 2.0 * (cof_b * e[0] * e[1] + cof_c * e[0] * e[2] + (b * c - a * f) * e[1] * e[2])
+    )
+    return quad / det
 
 
 def pose_nees(estimate, cov, truth) -> float:
@@ -46,13 +67,12 @@ def pose_nees(estimate, cov, truth) -> float:
 
 def map_rmse(estimates, truths) -> float:
     """Root-mean-square landmark position error over matched rows, m; nan if none."""
-    est = np.asarray(estimates, dtype=np.float64).reshape(-1, 2)
-    tru = np.asarray(truths, dtype=np.float64).reshape(-1, 2)
-    if est.shape != tru.shape:
-        raise ValueError(f"estimates {est.shape} and truths {tru.shape} differ in shape")
-    if len(est) == 0:
+    diff = np.subtract(estimates, truths, dtype=np.float64)
+    if diff.ndim != 2 or diff.shape[1] != 2:
+        raise ValueError(f"estimates and truths must be (n, 2) arrays, got {diff.shape}")
+    if len(diff) == 0:
         return math.nan
-    return float(np.sqrt(np.mean(np.sum((est - tru) ** 2, axis=1))))
+    return math.sqrt(float(np.vdot(diff, diff)) / len(diff))
 
 
 def log_det_psd(cov, floor: float = 0.0) -> float:
@@ -61,11 +81,11 @@ def log_det_psd(cov, floor: float = 0.0) -> float:
     Tries a Cholesky factorisation first (fast); falls back to eigenvalues when the
     matrix is singular or slightly indefinite from round-off.
     """
-    cov = np.asarray(cov, dtype=np.float64)
+    cov = np.array(cov, dtype=np.float64)  # a copy: the floor is added in place
     if cov.size == 0:
         return 0.0
     if floor > 0.0:
-        cov = cov + floor * np.eye(cov.shape[0])
+        cov.flat[:: cov.shape[0] + 1] += floor
     try:
         chol = np.linalg.cholesky(cov)
         return float(2.0 * np.sum(np.log(np.diagonal(chol))))

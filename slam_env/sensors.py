@@ -19,18 +19,22 @@ exactly.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
 from slam_env.config import OdometryConfig, SensorConfig
-from slam_env.ekf.models import odometry_action_cov, velocity_control_cov
+from slam_env.ekf.models import (
+    odometry_action_cov,
+    odometry_action_variances,
+    velocity_control_cov,
+    velocity_control_variances,
+)
 from slam_env.geometry import (
     odometry_from_poses,
-    rotation,
     velocity_from_poses,
-    wrap_angle,
+    wrap_float,
 )
 
 __all__ = ["Detections", "LandmarkSensor", "LineOfSight", "OdometrySensor"]
@@ -117,6 +121,7 @@ class LandmarkSensor:
         else:
             std = (float(config.cartesian_std), float(config.cartesian_std))
         self._std = np.array(std, dtype=np.float64)
+        self._std_pair = std
         self._noisy = bool(std[0] > 0.0 or std[1] > 0.0)
 
     @property
@@ -124,25 +129,37 @@ class LandmarkSensor:
         """Q (2×2): ``diag(σr², σφ²)`` for range-bearing, ``σz² I`` for cartesian."""
         return np.diag(self._std * self._std)
 
-    def _geometry(self, pose, positions: np.ndarray):
-        """For every landmark: robot-frame coordinates d (N, 2) = R(θ)ᵀ(m − t), the
-        true ``[r, φ]`` rows rb (N, 2) with φ = atan2(d_y, d_x) ∈ [−π, π], and the
-        in-range-and-FOV mask (N,). φ computed in the robot frame equals the seed's
-        wrap(atan2(my − y, mx − x) − θ) without the cancellation of subtracting θ."""
-        x, y, theta = float(pose[0]), float(pose[1]), float(pose[2])
+    def _in_view(
+        self, x: float, y: float, theta: float, positions: np.ndarray
+    ) -> tuple[np.ndarray, list[tuple[int, float, float]]]:
+        """Step 1 of the class docstring, from the pose (x, y, θ).
+
+        Returns the robot-frame coordinates d (N, 2) = R(θ)ᵀ(m − t) of every landmark,
+        and ``(row, r, φ)`` of those within range and field of view, in ascending row
+        order, with the true range r = |d| and bearing φ = atan2(d_y, d_x) ∈ [−π, π].
+        φ computed in the robot frame equals the seed's wrap(atan2(my − y, mx − x) − θ)
+        without the cancellation of subtracting θ.
+
+        A numpy call costs about a microsecond whatever its size, so for tens of
+        landmarks the number of calls matters more than the arithmetic: r and φ are
+        computed vectorised, then the two tests run on Python floats.
+        """
         c, s = math.cos(theta), math.sin(theta)
-        # Row-wise R(θ)ᵀ(m − t) = m·R(θ) − t·R(θ): one small matmul, scalar offset.
-        d = np.dot(positions, rotation(theta))
-        d -= (c * x + s * y, c * y - s * x)
+        # Row-wise R(θ)ᵀ(m − t) = m·R(θ) − t·R(θ): one small matmul, then the offset
+        # t·R(θ), the third row of the same array.
+        frame = np.array(((c, -s), (s, c), (c * x + s * y, c * y - s * x)))
+        d = np.dot(positions, frame[:2])
+        d -= frame[2]
         dx = d[:, 0]
         dy = d[:, 1]
-        rb = np.empty_like(d)
-        r = np.hypot(dx, dy, out=rb[:, 0])
-        bearing = np.arctan2(dy, dx, out=rb[:, 1])
-        mask = r <= self.max_range
-        if not self._all_around:
-            mask &= np.abs(bearing) <= self._half_fov
-        return d, rb, mask
+        r = np.hypot(dx, dy).tolist()
+        phi = np.arctan2(dy, dx).tolist()
+        max_range = self.max_range
+        rows = [i for i, ri in enumerate(r) if ri <= max_range]
+        if self._all_around:
+            return d, [(i, r[i], phi[i]) for i in rows]
+        half_fov = self._half_fov
+        return d, [(i, r[i], phi[i]) for i in rows if abs(phi[i]) <= half_fov]
 
     @staticmethod
     def _as_positions(positions) -> np.ndarray:
@@ -155,8 +172,9 @@ class LandmarkSensor:
         """Indices (ascending, int64) of the landmarks within ``max_range`` and the
         field of view of ``pose``, before occlusion and detection probability."""
         positions = self._as_positions(positions)
-        mask = self._geometry(pose, positions)[2]
-        return mask.nonzero()[0].astype(np.int64, copy=False)
+        x, y, theta = float(pose[0]), float(pose[1]), float(pose[2])
+        found = self._in_view(x, y, theta, positions)[1]
+        return np.array([f[0] for f in found], dtype=np.int64)
 
     def sense(
         self,
@@ -183,44 +201,76 @@ class LandmarkSensor:
         ids = np.asarray(ids)
         if ids.shape != (positions.shape[0],):
             raise ValueError(f"ids must have shape ({positions.shape[0]},), got {ids.shape}")
-        d, rb, mask = self._geometry(pose, positions)
-        idx = mask.nonzero()[0]
-        if idx.size > 1:
-            found = ids.take(idx)
-            listed = found.tolist()
-            if listed != sorted(listed):
-                idx = idx[np.argsort(found, kind="stable")]
-        if self.detection_prob < 1.0 and idx.size:
-            idx = idx[rng.random(idx.size) < self.detection_prob]
-        if line_of_sight is not None and idx.size:
-            origin = np.array([float(pose[0]), float(pose[1])])
+        x, y, theta = float(pose[0]), float(pose[1]), float(pose[2])
+        visible = None
+        if line_of_sight is not None:
+            # Read-only views: the callback cannot modify the caller's arrays.
+            origin = np.array([x, y])
             origin.flags.writeable = False
             view = positions.view()
             view.flags.writeable = False
-            idx = np.array(
-                [i for i in idx.tolist() if line_of_sight(origin, view[i], i)], dtype=np.intp
-            )
-        if self.max_detections is not None and idx.size > self.max_detections:
-            nearest = np.argsort(rb[:, 0].take(idx), kind="stable")[: self.max_detections]
-            idx = idx[np.sort(nearest)]
-        k = idx.size
+
+            def visible(row: int) -> bool:
+                return line_of_sight(origin, view[row], row)
+
+        return self._sense(x, y, theta, positions, ids, rng, visible)
+
+    def _sense(
+        self,
+        x: float,
+        y: float,
+        theta: float,
+        positions: np.ndarray,
+        ids: np.ndarray,
+        rng: np.random.Generator,
+        visible: Callable[[int], bool] | None,
+    ) -> Detections:
+        """:meth:`sense` without its input checks, for a caller whose inputs are
+        already canonical (the env, every step): the pose as Python floats,
+        ``positions`` (N, 2) float64, ``ids`` (N,) integers and ``visible(row)``, the
+        occlusion test of one row (``None``: nothing occludes). Same steps, same draws."""
+        d, found = self._in_view(x, y, theta, positions)  # (row, r, φ), ascending row
+        if len(found) > 1:
+            all_ids = ids.tolist()
+            listed = [all_ids[f[0]] for f in found]
+            if listed != sorted(listed):
+                # Python's sort is stable, like argsort(kind="stable"): equal IDs keep
+                # their row order.
+                order = sorted(range(len(found)), key=listed.__getitem__)
+                found = [found[j] for j in order]
+        if self.detection_prob < 1.0 and found:
+            draws = rng.random(len(found)).tolist()
+            found = [f for f, u in zip(found, draws, strict=True) if u < self.detection_prob]
+        if visible is not None:
+            found = [f for f in found if visible(f[0])]
+        if self.max_detections is not None and len(found) > self.max_detections:
+            by_range = sorted(range(len(found)), key=lambda j: found[j][1])  # stable
+            found = [found[j] for j in sorted(by_range[: self.max_detections])]
+        k = len(found)
         if k == 0:
             return Detections(_EMPTY_Z.copy(), _EMPTY_I.copy(), _EMPTY_I.copy())
+        rows = [f[0] for f in found]
+        # The k rows as Python floats: each value gets the arithmetic of the vectorised
+        # z + σ·ε (one multiply, one add) and the same wrap, so the bits are the same.
+        noise = rng.standard_normal((k, 2)).tolist() if self._noisy else None
+        s0, s1 = self._std_pair
         if self.model == "range_bearing":
-            z = rb.take(idx, axis=0)
-            if self._noisy:
-                noise = rng.standard_normal((k, 2))
-                noise *= self._std
-                z += noise
             # wrap: +π (landmark straight behind) becomes −π; noise may leave [−π, π)
-            z[:, 1] = wrap_angle(z[:, 1])
+            if noise is None:
+                z = [(r, wrap_float(phi)) for _, r, phi in found]
+            else:
+                z = [
+                    (r + n0 * s0, wrap_float(phi + n1 * s1))
+                    for (_, r, phi), (n0, n1) in zip(found, noise, strict=True)
+                ]
         else:
-            z = d.take(idx, axis=0)
-            if self._noisy:
-                noise = rng.standard_normal((k, 2))
-                noise *= self._std
-                z += noise
-        return Detections(z, ids.take(idx).astype(np.int64), idx.astype(np.int64))
+            z = d.take(rows, axis=0).tolist()
+            if noise is not None:
+                z = [(a + n0 * s0, b + n1 * s1) for (a, b), (n0, n1) in zip(z, noise, strict=True)]
+        index = np.array(rows, dtype=np.int64)
+        return Detections(
+            np.array(z, dtype=np.float64), ids.take(index).astype(np.int64, copy=False), index
+        )
 
 
 class OdometrySensor:
@@ -263,9 +313,13 @@ class OdometrySensor:
 
     def true_control(self, pose0, pose1) -> np.ndarray:
         """The noiseless control (dim,) that takes pose0 to pose1."""
+        return np.array(self._true_control(pose0, pose1), dtype=np.float64)
+
+    def _true_control(self, pose0, pose1) -> tuple[float, ...]:
+        """:meth:`true_control` as a tuple of Python floats (the env's hot path)."""
         if self._odometry:
-            return np.array(odometry_from_poses(pose0, pose1), dtype=np.float64)
-        return np.array(velocity_from_poses(pose0, pose1), dtype=np.float64)
+            return odometry_from_poses(pose0, pose1)
+        return velocity_from_poses(pose0, pose1)
 
     def noise_cov(self, u) -> np.ndarray:
         """The action-space noise covariance at u: M (3×3) or Σu (2×2), diagonal."""
@@ -279,11 +333,27 @@ class OdometrySensor:
         u = np.asarray(u, dtype=np.float64)
         if u.shape != (self.dim,):
             raise ValueError(f"u must have shape ({self.dim},), got {u.shape}")
-        std = np.sqrt(np.diagonal(self.noise_cov(u)))
-        out = u + std * rng.standard_normal(self.dim)
-        for i in self.angle_indices:
-            out[i] = wrap_angle(out[i])
-        return out
+        return np.array(self._perturb(u.tolist(), rng), dtype=np.float64)
+
+    def _perturb(self, u: Sequence[float], rng: np.random.Generator) -> tuple[float, ...]:
+        """:meth:`perturb` of a control of ``dim`` Python floats, returned as Python
+        floats, unchecked: the env's hot path, where numpy's per-call overhead on a
+        3-vector costs more than the arithmetic. Same draw, and each entry gets the
+        arithmetic of the vectorised form (sqrt, one multiply, one add), so same bits."""
+        sqrt = math.sqrt
+        if self._odometry:
+            v1, v2, v3 = odometry_action_variances(u, self.alphas)
+            e1, e2, e3 = rng.standard_normal(3).tolist()
+            rot1, trans, rot2 = u
+            return (
+                wrap_float(rot1 + sqrt(v1) * e1),
+                trans + sqrt(v2) * e2,
+                wrap_float(rot2 + sqrt(v3) * e3),
+            )
+        v1, v2 = velocity_control_variances(u, self.velocity_noise)
+        e1, e2 = rng.standard_normal(2).tolist()
+        dp, dth = u
+        return (dp + sqrt(v1) * e1, wrap_float(dth + sqrt(v2) * e2))
 
     def measure(self, pose0, pose1, rng: np.random.Generator) -> np.ndarray:
         """The noisy odometry reading (dim,) for the true motion pose0 → pose1."""

@@ -43,6 +43,12 @@ _PI = math.pi
 _TWO_PI = 2.0 * math.pi
 # Queries for the robot's motion see everything but the robot itself.
 _MOTION_FILTER = pymunk.ShapeFilter(mask=_ALL & ~CAT_ROBOT)
+# A clearance query looks this much farther (m) than it must, so that its answer also
+# settles the next few moves without a query (see World._is_clear).
+CLEARANCE_LOOKAHEAD = 0.5
+# Slack (m) for round-off when a move is settled from an earlier query's answer; the
+# distances involved are exact to ~1e-15 m.
+_CLEARANCE_SLACK = 1e-9
 
 
 class World:
@@ -97,6 +103,7 @@ class World:
         ids.flags.writeable = False
         self._landmark_positions = positions
         self._landmark_ids = ids
+        self._landmark_points = tuple((x, y) for x, y in positions.tolist())
         # One query filter per landmark: its post has group i + 1, so the query skips
         # it; the mask skips the robot.
         self._los_filters = tuple(
@@ -104,6 +111,8 @@ class World:
             for i in range(layout.n_landmarks)
         )
         self._build_space()
+        # (cx, cy, d): nothing the robot can hit lies closer than d to (cx, cy).
+        self._clear_disk = (0.0, 0.0, -math.inf)
         x, y, theta = layout.start_pose
         self._place(x, y, theta)
 
@@ -146,8 +155,10 @@ class World:
     def _place(self, x: float, y: float, theta: float) -> None:
         self._x, self._y = x, y
         self._theta = (theta + _PI) % _TWO_PI - _PI
-        self._body.position = (x, y)
-        self._body.angle = self._theta
+        # Every query skips the robot, so its body only matters to whoever reads the
+        # space: it is brought up to date there (see `space`), not at every step,
+        # which would cost two pymunk attribute writes per step.
+        self._body_synced = False
 
     # ----------------------------------------------------------------- state
 
@@ -168,7 +179,12 @@ class World:
 
     @property
     def space(self) -> pymunk.Space:
-        """The pymunk space (for drawing and debugging; don't step it directly)."""
+        """The pymunk space (for drawing and debugging; don't step it directly). The
+        robot's body is moved to the current pose when this is read."""
+        if not self._body_synced:
+            self._body.position = (self._x, self._y)
+            self._body.angle = self._theta
+            self._body_synced = True
         return self._space
 
     @property
@@ -211,8 +227,9 @@ class World:
         h = self.dt / n
         dth, travel = omega * h, v * h
         query = self._space.point_query_nearest
+        is_clear = self._is_clear
         # Nothing within reach of the whole step: no need to check each move.
-        free = v == 0.0 or query((x, y), radius + abs(v) * self.dt, _MOTION_FILTER) is None
+        free = v == 0.0 or is_clear(x, y, radius + abs(v) * self.dt)
         blocked = False
         cos, sin = math.cos, math.sin
         for _ in range(n):
@@ -222,7 +239,7 @@ class World:
             if travel == 0.0:
                 continue
             dx, dy = travel * cos(mid_heading), travel * sin(mid_heading)
-            if not free and query((x + dx, y + dy), radius, _MOTION_FILTER) is not None:
+            if not free and not is_clear(x + dx, y + dy, radius):
                 blocked = True
                 # Bisect for the longest part of the move that keeps the robot clear.
                 lo, hi = 0.0, 1.0
@@ -238,17 +255,55 @@ class World:
         self._place(x, y, a)
         return blocked
 
+    def _is_clear(self, x: float, y: float, reach: float) -> bool:
+        """``point_query_nearest((x, y), reach, _MOTION_FILTER) is None``: nothing the
+        robot can hit is closer than ``reach`` to (x, y). Same answer, fewer queries.
+
+        The shapes never move, and the distance to a shape changes by at most as much
+        as the point moves, so if nothing is closer than d to (cx, cy), nothing is
+        closer than d − |p − c| to p. Each query therefore looks
+        :data:`CLEARANCE_LOOKAHEAD` farther than it must and keeps the disk it found
+        empty (the nearest shape's distance, or its whole radius); a point whose reach
+        lies inside that disk needs no query. A query finds a shape within ``reach``
+        exactly when the nearest shape within the larger radius is closer than ``reach``.
+        """
+        cx, cy, clearance = self._clear_disk
+        if math.hypot(x - cx, y - cy) + reach + _CLEARANCE_SLACK < clearance:
+            return True
+        radius = reach + CLEARANCE_LOOKAHEAD
+        nearest = self._space.point_query_nearest((x, y), radius, _MOTION_FILTER)
+        clearance = radius if nearest is None else nearest.distance
+        self._clear_disk = (x, y, clearance)
+        return clearance >= reach
+
     # ----------------------------------------------------------------- line of sight
 
     def line_of_sight(self, origin: Any, target: Any, landmark_index: int) -> bool:
         """True when the segment origin → target (each (2,), m) is not blocked by a wall,
         an obstacle or another landmark's post; the robot and the post of landmark
         ``landmark_index`` (its row in :attr:`landmark_positions`) are ignored."""
-        hit = self._space.segment_query_first(
+        return self._segment_clear(
             (float(origin[0]), float(origin[1])),
             (float(target[0]), float(target[1])),
+            landmark_index,
+        )
+
+    def _landmark_visible_from(self, x: float, y: float, landmark_index: int) -> bool:
+        """:meth:`line_of_sight` from (x, y), Python floats, to the landmark itself: the
+        env's occlusion test, without converting arrays at every call."""
+        hit = self._space.segment_query_first(
+            (x, y),
+            self._landmark_points[landmark_index],
             0.0,
             self._los_filters[landmark_index],
+        )
+        return hit is None
+
+    def _segment_clear(
+        self, origin: tuple[float, float], target: tuple[float, float], landmark_index: int
+    ) -> bool:
+        hit = self._space.segment_query_first(
+            origin, target, 0.0, self._los_filters[landmark_index]
         )
         return hit is None
 

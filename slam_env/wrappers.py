@@ -121,38 +121,34 @@ class EKFSLAMWrapper(gym.ObservationWrapper):
         self._truth_by_id[info["landmark_ids"]] = info["landmark_positions"]
         self.filter.reset(initial_pose=info["pose"], initial_pose_cov=self._initial_pose_cov)
         self._correct(raw)
-        return self.observation(raw), self._add_diagnostics(info)
+        return self._observe(info)
 
     def step(self, action: Any) -> tuple[Any, SupportsFloat, bool, bool, dict[str, Any]]:
         raw, reward, terminated, truncated, info = self.env.step(action)
         self.filter.predict(raw["odometry"].astype(np.float64))
         self._correct(raw)
-        return self.observation(raw), reward, terminated, truncated, self._add_diagnostics(info)
+        obs, info = self._observe(info)
+        return obs, reward, terminated, truncated, info
 
     def observation(self, observation: Any) -> Any:
         """The belief encoding of the filter's current state (the raw observation has
         already been folded into the filter by ``reset``/``step``)."""
         f = self.filter
-        if self.observation_mode == "full":
-            obs, clipped = self._encoding.encode(f.mean, f.cov, f.state_to_id)
-        else:
-            obs, clipped = self._encoding.encode(
-                f.pose, f.pose_cov, f.state_to_id, f.landmark_means(), f.landmark_covs()
-            )
-        self._last_clipped = clipped
+        obs, self._last_clipped = self._encoding.encode(f.mean, f.cov, f.state_to_id)
         return obs
 
-    def belief_entropy(self) -> float:
+    def belief_entropy(self, cov: np.ndarray | None = None) -> float:
         """Entropy (nats) of the belief over the pose and all ``max_landmarks`` slots:
         an unseen landmark's slot carries an independent prior, uniform over the arena
         in its first two moments, so discovering a landmark lowers the entropy and the
-        dimension never changes. Eigenvalues are floored at ``ENTROPY_FLOOR``."""
-        f = self.filter
-        unseen = self._geometry.max_landmarks - f.n_landmarks
+        dimension never changes. Eigenvalues are floored at ``ENTROPY_FLOOR``.
+        ``cov`` is the filter's covariance if already at hand (it is not modified)."""
+        cov = self.filter.cov if cov is None else cov
+        unseen = self._geometry.max_landmarks - (cov.shape[0] - 3) // 2
         vx, vy = self._prior_var
         prior = unseen * (math.log(vx + ENTROPY_FLOOR) + math.log(vy + ENTROPY_FLOOR))
         dim = 3 + 2 * self._geometry.max_landmarks
-        log_det = metrics.log_det_psd(f.cov, ENTROPY_FLOOR) + prior
+        log_det = metrics.log_det_psd(cov, ENTROPY_FLOOR) + prior
         return 0.5 * (dim * math.log(2.0 * math.pi * math.e) + log_det)
 
     def belief_overlay(self, true_landmarks: Any = None) -> BeliefOverlay:
@@ -178,25 +174,26 @@ class EKFSLAMWrapper(gym.ObservationWrapper):
         if ids.size:
             self.filter.update(z, ids)
 
-    def _add_diagnostics(self, info: dict[str, Any]) -> dict[str, Any]:
+    def _observe(self, info: dict[str, Any]) -> tuple[Any, dict[str, Any]]:
+        """The belief observation and the diagnostics, from one copy of the state."""
         f = self.filter
-        pose, pose_cov = f.pose, f.pose_cov
-        err = metrics.pose_error(pose, info["pose"])
-        ids = f.state_to_id
+        mean, cov, ids = f.mean, f.cov, f.state_to_id
+        obs, clipped = self._encoding.encode(mean, cov, ids)
+        err = metrics.pose_error(mean, info["pose"])
         if ids.size:
-            map_rmse = metrics.map_rmse(f.landmark_means(), self._truth_by_id[ids])
+            map_rmse = metrics.map_rmse(mean[3:].reshape(-1, 2), self._truth_by_id[ids])
         else:
             map_rmse = math.nan
-        info["pose_error"] = float(math.hypot(err[0], err[1]))
-        info["heading_error"] = float(abs(err[2]))
+        info["pose_error"] = math.hypot(err[0], err[1])
+        info["heading_error"] = abs(float(err[2]))
         info["map_rmse"] = map_rmse
-        info["pose_nees"] = metrics.nees(err, pose_cov)
-        info["landmarks_known"] = int(f.n_landmarks)
+        info["pose_nees"] = metrics.nees(err, cov[:3, :3])
+        info["landmarks_known"] = int(ids.size)
         info["rejected"] = int(f.n_rejected)
-        info["entropy"] = self.belief_entropy()
-        info["pose_std"] = float(math.sqrt(max(pose_cov[0, 0] + pose_cov[1, 1], 0.0)))
-        info["belief_clipped"] = bool(self._last_clipped)
-        return info
+        info["entropy"] = self.belief_entropy(cov)
+        info["pose_std"] = math.sqrt(max(float(cov[0, 0] + cov[1, 1]), 0.0))
+        info["belief_clipped"] = bool(clipped)
+        return obs, info
 
 
 @dataclass(frozen=True)

@@ -46,16 +46,29 @@ def _wrap(a: float) -> float:
 # --------------------------------------------------------------------------- noise
 
 
+def odometry_action_variances(u, alphas) -> tuple[float, float, float]:
+    """The diagonal of M (see :func:`odometry_action_cov`) as Python floats, for
+    callers that work on a 3-vector without numpy (the odometry sensor's hot path)."""
+    rot1, trans, rot2 = float(u[0]), float(u[1]), float(u[2])
+    a1, a2, a3, a4 = map(float, alphas)
+    r1, t, r2 = rot1 * rot1, trans * trans, rot2 * rot2
+    return (a1 * r1 + a2 * t, a3 * t + a4 * (r1 + r2), a1 * r2 + a2 * t)
+
+
 def odometry_action_cov(u, alphas) -> np.ndarray:
     """M, the 3×3 action-space noise of the odometry model (seed 000).
 
     u = (δrot1, δtr, δrot2); alphas = (α1, α2, α3, α4).
     M = diag(α1·δrot1² + α2·δtr², α3·δtr² + α4·(δrot1² + δrot2²), α1·δrot2² + α2·δtr²).
     """
-    rot1, trans, rot2 = float(u[0]), float(u[1]), float(u[2])
-    a1, a2, a3, a4 = (float(a) for a in alphas)
-    r1, t, r2 = rot1 * rot1, trans * trans, rot2 * rot2
-    return np.diag([a1 * r1 + a2 * t, a3 * t + a4 * (r1 + r2), a1 * r2 + a2 * t])
+    return np.diag(odometry_action_variances(u, alphas))
+
+
+def velocity_control_variances(u, noise) -> tuple[float, float]:
+    """The diagonal of Σu (see :func:`velocity_control_cov`) as Python floats."""
+    dp, dth = float(u[0]), float(u[1])
+    sp, sth, bp, bth = map(float, noise)
+    return (sp * sp + bp * dp * dp, sth * sth + bth * dth * dth)
 
 
 def velocity_control_cov(u, noise) -> np.ndarray:
@@ -63,9 +76,7 @@ def velocity_control_cov(u, noise) -> np.ndarray:
 
     u = (Δp, Δθ); noise = (σp, σθ, βp, βθ); Σu = diag(σp² + βp·Δp², σθ² + βθ·Δθ²).
     """
-    dp, dth = float(u[0]), float(u[1])
-    sp, sth, bp, bth = (float(n) for n in noise)
-    return np.diag([sp * sp + bp * dp * dp, sth * sth + bth * dth * dth])
+    return np.diag(velocity_control_variances(u, noise))
 
 
 # --------------------------------------------------------------------------- motion
