@@ -49,7 +49,7 @@ class PPOParams:
     learning_rate: float = 3.0e-4
     n_steps: int = 1024  # rollout length per env
     batch_size: int = 256
-    n_epochs: int = 10
+    n_epochs: int = 5
     gamma: float = 0.99
     gae_lambda: float = 0.95
     clip_range: float = 0.2
@@ -58,7 +58,7 @@ class PPOParams:
     max_grad_norm: float = 0.5
     target_kl: float | None = None
     normalize_advantage: bool = True
-    net_arch: list[int] = field(default_factory=lambda: [256, 256])  # pi and vf MLPs
+    net_arch: list[int] = field(default_factory=lambda: [128, 128])  # pi and vf MLPs
     activation: str = "tanh"
 
 
@@ -66,7 +66,7 @@ class PPOParams:
 class TrainConfig:
     """Everything ``train`` needs. Frequencies count env steps (all envs together)."""
 
-    total_timesteps: int = 1_000_000
+    total_timesteps: int = 600_000
     n_envs: int = 2  # SubprocVecEnv workers; 1 runs in-process (DummyVecEnv)
     seed: int = 0
     env_options: dict[str, Any] = field(default_factory=dict)  # ActiveSLAMEnv options
@@ -78,7 +78,7 @@ class TrainConfig:
     out_dir: str = "runs/ppo"
     model_name: str = "ppo_active_slam"
     checkpoint_freq: int = 100_000  # 0: no checkpoints
-    eval_freq: int = 50_000  # 0: no periodic evaluation
+    eval_freq: int = 100_000  # 0: no periodic evaluation
     eval_episodes: int = 5
     eval_seed: int = 1_000_000  # the eval env's worlds: the same at every evaluation
     verbose: int = 0  # SB3 verbosity

@@ -24,6 +24,9 @@ from slam_env.wrappers import (
     EKFSLAMWrapper,
 )
 
+# Proximity beams in the active-SLAM observation, unless the options set them.
+DEFAULT_SCAN_BEAMS = 16
+
 
 class ActiveSLAMEnv(gym.Env):
     """Active SLAM: act on the EKF-SLAM belief, be paid for reducing its uncertainty.
@@ -38,7 +41,10 @@ class ActiveSLAMEnv(gym.Env):
     ``"batch"``), ``gate`` (χ² threshold or ``None``), ``filter_alphas``,
     ``filter_control_noise``, ``filter_measurement_cov`` (a mismatched filter; default:
     the env's true noise), ``reward_weights`` (an :class:`ActiveSLAMRewardWeights` or a
-    dict of its fields); every other option goes to :class:`LandmarksEnv`.
+    dict of its fields); every other option goes to :class:`LandmarksEnv`, where
+    ``scan_beams`` defaults to 16 here: a policy needs to see obstacles, which the
+    landmark map does not hold. The scan is appended to the egocentric observation
+    (and is the ``scan`` key of the full one).
     """
 
     metadata = LandmarksEnv.metadata
@@ -61,6 +67,9 @@ class ActiveSLAMEnv(gym.Env):
             if unknown:
                 raise TypeError(f"unknown reward_weights {unknown}; valid: {sorted(valid)}")
             reward_weights = ActiveSLAMRewardWeights(**reward_weights)
+        if not {"config", "sensor", "scan_beams"} & set(env_options):
+            # A policy must see obstacles that the landmark map does not hold.
+            env_options["scan_beams"] = DEFAULT_SCAN_BEAMS
         self.raw_env = LandmarksEnv(render_mode=render_mode, **env_options)
         self.belief_wrapper = EKFSLAMWrapper(
             self.raw_env,

@@ -118,6 +118,8 @@ class SensorConfig:
     cartesian_std: float = 0.05  # m, σz for the cartesian model
     detection_prob: float = 1.0  # probability a visible landmark is reported
     max_detections: int | None = None  # rows of the padded array; None: one per landmark
+    scan_beams: int = 0  # proximity beams evenly spread over 360°; 0: no "scan" observation
+    scan_range: float = 3.0  # m, reach of the proximity beams
 
     def __post_init__(self) -> None:
         _check_choice(
@@ -139,6 +141,8 @@ class SensorConfig:
             )
         if self.max_detections is not None:
             _check_int("SensorConfig", 1, max_detections=self.max_detections)
+        _check_int("SensorConfig", 0, scan_beams=self.scan_beams)
+        _check_positive("SensorConfig", scan_range=self.scan_range)
 
     @property
     def measurement_cov(self):

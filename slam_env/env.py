@@ -14,7 +14,7 @@ from gymnasium.error import ResetNeeded
 from slam_env.actions import DISCRETE_PRIMITIVES, parse_action
 from slam_env.config import EnvConfig, make_config
 from slam_env.layouts import Layout, layout_for
-from slam_env.sensors import Detections, LandmarkSensor, OdometrySensor
+from slam_env.sensors import LandmarkSensor, OdometrySensor
 from slam_env.world import World
 
 # Headroom of the odometry translation bound over the largest physical motion of a
@@ -67,6 +67,9 @@ class LandmarksEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
     |                |        | ``measurement_model="cartesian"``; zero pairs are padding     |
     | ``ids``        | (D,)   | the landmark ID of each pair; −1 for padding                  |
     | ``mask``       | (D,)   | 1.0 for a real detection, 0.0 for padding                     |
+    | ``scan``       | (B,)   | only with ``scan_beams=B > 0``: a proximity scan, the free    |
+    |                |        | distance along B beams spread over 360° (the first from       |
+    |                |        | behind, counter-clockwise) / ``scan_range``, in [0, 1]        |
 
     ``detections`` is flat so that every key is a vector (what stable-baselines3's
     policies expect); :func:`unpack_detections` returns the valid ``(k, 2)`` rows and
@@ -90,7 +93,7 @@ class LandmarksEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
 
     ## Info
     ``pose`` (3,) true pose, ``landmark_positions`` (N, 2) and ``landmark_ids`` (N,)
-    true map, ``collision`` (bool), ``seen_ids`` IDs detected so far (sorted),
+    true map, ``collision`` (bool), ``seen`` (M,) bool: landmark ID i detected so far,
     ``odometry_true`` the noise-free control, ``reward_terms``.
 
     ## Arguments
@@ -143,7 +146,8 @@ class LandmarksEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         self._closed = False
         self._seen = np.zeros(self.n_landmark_slots, dtype=bool)
         self._trail: list[tuple[float, float]] = []
-        self._last_detections: Detections | None = None
+        # The last scan (rows, IDs, z), for render_frame.
+        self._last_scan: tuple[list[int], list[int], list[tuple[float, float]]] | None = None
         self._last_collision = False
         # Drawn over the world by render(); the EKF-SLAM wrapper sets it.
         self.belief_overlay = None
@@ -182,14 +186,19 @@ class LandmarksEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         self._empty_detections = np.zeros(2 * d, dtype=np.float32)
         self._empty_ids = np.full(d, -1.0, dtype=np.float32)
         self._masks = tuple((np.arange(d) < k).astype(np.float32) for k in range(d + 1))
-        return spaces.Dict(
-            {
-                "odometry": spaces.Box(-odo_high, odo_high, dtype=np.float32),
-                "detections": spaces.Box(det_low.ravel(), det_high.ravel(), dtype=np.float32),
-                "ids": spaces.Box(-1.0, float(self.n_landmark_slots - 1), (d,), np.float32),
-                "mask": spaces.Box(0.0, 1.0, (d,), np.float32),
-            }
+        beams = cfg.sensor.scan_beams
+        self._scan_angles = tuple(
+            -math.pi + 2.0 * math.pi * (i + 0.5) / beams for i in range(beams)
         )
+        obs_spaces = {
+            "odometry": spaces.Box(-odo_high, odo_high, dtype=np.float32),
+            "detections": spaces.Box(det_low.ravel(), det_high.ravel(), dtype=np.float32),
+            "ids": spaces.Box(-1.0, float(self.n_landmark_slots - 1), (d,), np.float32),
+            "mask": spaces.Box(0.0, 1.0, (d,), np.float32),
+        }
+        if beams:
+            obs_spaces["scan"] = spaces.Box(0.0, 1.0, (beams,), np.float32)
+        return spaces.Dict(obs_spaces)
 
     # ------------------------------------------------------------------ API
     def reset(
@@ -202,13 +211,19 @@ class LandmarksEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
             raise ValueError(f"LandmarksEnv.reset takes no options, got {sorted(options)}")
         cfg = self.config
         layout = self._fixed_layout or layout_for(cfg, rng=self.np_random)
+        # layout_for validated the layout for this robot and wall thickness.
         self._world = World(
-            layout, cfg.robot, cfg.dt, cfg.physics_substeps, cfg.world.wall_thickness
+            layout,
+            cfg.robot,
+            cfg.dt,
+            cfg.physics_substeps,
+            cfg.world.wall_thickness,
+            validated=True,
         )
         self._landmark_positions = self._world.landmark_positions
         self._landmark_ids = self._world.landmark_ids
+        self._landmark_id_list = self._landmark_ids.tolist()
         self._seen[:] = False
-        self._seen_ids = np.flatnonzero(self._seen)
         self._last_collision = False
         self.belief_overlay = None
         pose = self._world.pose
@@ -216,10 +231,12 @@ class LandmarksEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         if self._renderer is not None:
             self._renderer.set_layout(layout)
 
-        detections = self._sense(pose)
-        self._mark_seen(detections)
+        _, det_ids, z = self._sense(pose)
+        self._mark_seen(det_ids)
         zero_control = (0.0,) * self.odometry.dim
-        obs = self._get_obs(zero_control, detections)
+        obs = self._get_obs(zero_control, det_ids, z)
+        if self._scan_angles:
+            obs["scan"] = self._scan(pose)
         info = self._get_info(pose, zero_control, {"new_landmarks": 0.0, "collision": 0.0})
         if self.render_mode == "human":
             self.render()
@@ -250,8 +267,8 @@ class LandmarksEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         # are well-formed by construction) and work on plain floats.
         true_control = self.odometry._true_control(pose0, pose1)
         control = self.odometry._perturb(true_control, self.np_random)
-        detections = self._sense(pose1)
-        n_new = self._mark_seen(detections)
+        _, det_ids, z = self._sense(pose1)
+        n_new = self._mark_seen(det_ids)
 
         # Reward terms, then episode end.
         new_term = cfg.reward.new_landmark_bonus * n_new
@@ -259,7 +276,9 @@ class LandmarksEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         terms = {"new_landmarks": new_term, "collision": collision_term}
         reward = 0.0 + new_term + collision_term  # what sum(terms.values()) adds
         terminated = bool(cfg.terminate_when_all_detected and self._all_seen())
-        obs = self._get_obs(control, detections)
+        obs = self._get_obs(control, det_ids, z)
+        if self._scan_angles:
+            obs["scan"] = self._scan(pose1)
         info = self._get_info(pose1, true_control, terms)
         if self.render_mode == "human":
             self.render()
@@ -294,37 +313,44 @@ class LandmarksEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
     def layout(self) -> Layout:
         return self.world.layout
 
-    def _sense(self, pose: tuple[float, float, float]) -> Detections:
+    def _sense(
+        self, pose: tuple[float, float, float]
+    ) -> tuple[list[int], list[int], list[tuple[float, float]]]:
+        """The scan from ``pose``: the detections' rows, IDs and z, sorted by ID, as
+        Python lists (what the observation is built from; no intermediate arrays)."""
         x, y, theta = pose
-        detections = self.sensor._sense(
+        scan = self.sensor._scan(
             x,
             y,
             theta,
             self._landmark_positions,
-            self._landmark_ids,
+            self._landmark_id_list,
             self.np_random,
             partial(self._world._landmark_visible_from, x, y),
         )
-        self._last_detections = detections
-        return detections
+        self._last_scan = scan
+        return scan
 
-    def _mark_seen(self, detections: Detections) -> int:
-        if not len(detections):
-            return 0
+    def _mark_seen(self, ids: list[int]) -> int:
         seen = self._seen
-        new = [i for i in detections.ids.tolist() if not seen[i]]
+        new = [i for i in ids if not seen[i]]
         if new:
             seen[new] = True
-            self._seen_ids = np.flatnonzero(seen)  # info["seen_ids"] copies it
         return len(new)
 
     def _all_seen(self) -> bool:
         return bool(np.all(self._seen[self._landmark_ids]))
 
+    def _scan(self, pose: tuple[float, float, float]) -> np.ndarray:
+        """The proximity scan, each beam's free distance / ``scan_range`` in [0, 1]."""
+        reach = self.config.sensor.scan_range
+        distances = self._world.range_scan(*pose, self._scan_angles, reach)
+        return np.array(distances, dtype=np.float32) / np.float32(reach)
+
     def _get_obs(
-        self, control: tuple[float, ...], detections: Detections
+        self, control: tuple[float, ...], ids_found: list[int], z: list[tuple[float, float]]
     ) -> dict[str, np.ndarray]:
-        k = len(detections)
+        k = len(ids_found)
         det = self._empty_detections.copy()
         ids = self._empty_ids.copy()
         mask = self._masks[k].copy()
@@ -333,13 +359,13 @@ class LandmarksEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
             (a_lo, a_hi), (b_lo, b_hi) = self._detection_bounds
             det[: 2 * k] = [
                 v
-                for a, b in detections.z.tolist()
+                for a, b in z
                 for v in (
                     a_lo if a < a_lo else a_hi if a > a_hi else a,
                     b_lo if b < b_lo else b_hi if b > b_hi else b,
                 )
             ]
-            ids[:k] = detections.ids
+            ids[:k] = ids_found
         odometry = [
             lo if u < lo else hi if u > hi else u
             for u, (lo, hi) in zip(control, self._odometry_bounds, strict=True)
@@ -359,7 +385,8 @@ class LandmarksEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
             "landmark_positions": self._landmark_positions.copy(),
             "landmark_ids": self._landmark_ids.copy(),
             "collision": self._last_collision,
-            "seen_ids": self._seen_ids.copy(),
+            # Fixed size (one entry per landmark ID), so vector envs can stack it.
+            "seen": self._seen.copy(),
             "odometry_true": np.array(true_control, dtype=np.float64),
             "reward_terms": terms,  # a new dict from each step and reset
         }
@@ -370,15 +397,16 @@ class LandmarksEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         from slam_env.rendering import Frame
 
         pose = self.world.pose
-        det = self._last_detections
-        if det is not None and len(det.ids):
+        scan = self._last_scan
+        if scan is not None and scan[0]:
+            z = np.array(scan[2], dtype=np.float64)
             if self.config.sensor.measurement_model == "range_bearing":
-                r, phi = det.z[:, 0], det.z[:, 1]
+                r, phi = z[:, 0], z[:, 1]
                 local = np.stack([r * np.cos(phi), r * np.sin(phi)], axis=-1)
             else:
-                local = det.z
+                local = z
             points = robot_to_world(pose, local)
-            ids = det.ids.copy()
+            ids = np.array(scan[1], dtype=np.int64)
         else:
             points = np.zeros((0, 2))
             ids = np.zeros(0, dtype=np.int64)

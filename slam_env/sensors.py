@@ -131,12 +131,13 @@ class LandmarkSensor:
 
     def _in_view(
         self, x: float, y: float, theta: float, positions: np.ndarray
-    ) -> tuple[np.ndarray, list[tuple[int, float, float]]]:
+    ) -> tuple[np.ndarray, np.ndarray, list[tuple[int, float, float]]]:
         """Step 1 of the class docstring, from the pose (x, y, θ).
 
-        Returns the robot-frame coordinates d (N, 2) = R(θ)ᵀ(m − t) of every landmark,
-        and ``(row, r, φ)`` of those within range and field of view, in ascending row
-        order, with the true range r = |d| and bearing φ = atan2(d_y, d_x) ∈ [−π, π].
+        Returns the robot-frame coordinates (d_x, d_y) = R(θ)ᵀ(m − t) of every landmark
+        as two (N,) arrays, and ``(row, r, φ)`` of those within range and field of
+        view, in ascending row order, with the true range r = |d| and bearing
+        φ = atan2(d_y, d_x) ∈ [−π, π].
         φ computed in the robot frame equals the seed's wrap(atan2(my − y, mx − x) − θ)
         without the cancellation of subtracting θ.
 
@@ -146,20 +147,18 @@ class LandmarkSensor:
         """
         c, s = math.cos(theta), math.sin(theta)
         # Row-wise R(θ)ᵀ(m − t) = m·R(θ) − t·R(θ): one small matmul, then the offset
-        # t·R(θ), the third row of the same array.
-        frame = np.array(((c, -s), (s, c), (c * x + s * y, c * y - s * x)))
-        d = np.dot(positions, frame[:2])
-        d -= frame[2]
-        dx = d[:, 0]
-        dy = d[:, 1]
+        # t·R(θ), subtracted column by column (a scalar operand is the cheapest).
+        d = np.dot(positions, np.array(((c, -s), (s, c))))
+        dx = d[:, 0] - (c * x + s * y)
+        dy = d[:, 1] - (c * y - s * x)
         r = np.hypot(dx, dy).tolist()
         phi = np.arctan2(dy, dx).tolist()
         max_range = self.max_range
         rows = [i for i, ri in enumerate(r) if ri <= max_range]
         if self._all_around:
-            return d, [(i, r[i], phi[i]) for i in rows]
+            return dx, dy, [(i, r[i], phi[i]) for i in rows]
         half_fov = self._half_fov
-        return d, [(i, r[i], phi[i]) for i in rows if abs(phi[i]) <= half_fov]
+        return dx, dy, [(i, r[i], phi[i]) for i in rows if abs(phi[i]) <= half_fov]
 
     @staticmethod
     def _as_positions(positions) -> np.ndarray:
@@ -173,7 +172,7 @@ class LandmarkSensor:
         field of view of ``pose``, before occlusion and detection probability."""
         positions = self._as_positions(positions)
         x, y, theta = float(pose[0]), float(pose[1]), float(pose[2])
-        found = self._in_view(x, y, theta, positions)[1]
+        found = self._in_view(x, y, theta, positions)[2]
         return np.array([f[0] for f in found], dtype=np.int64)
 
     def sense(
@@ -213,26 +212,34 @@ class LandmarkSensor:
             def visible(row: int) -> bool:
                 return line_of_sight(origin, view[row], row)
 
-        return self._sense(x, y, theta, positions, ids, rng, visible)
+        rows, _, z = self._scan(x, y, theta, positions, ids.tolist(), rng, visible)
+        if not rows:
+            return Detections(_EMPTY_Z.copy(), _EMPTY_I.copy(), _EMPTY_I.copy())
+        index = np.array(rows, dtype=np.int64)
+        return Detections(np.array(z, dtype=np.float64), ids.take(index).astype(np.int64), index)
 
-    def _sense(
+    def _scan(
         self,
         x: float,
         y: float,
         theta: float,
         positions: np.ndarray,
-        ids: np.ndarray,
+        ids: Sequence,
         rng: np.random.Generator,
         visible: Callable[[int], bool] | None,
-    ) -> Detections:
-        """:meth:`sense` without its input checks, for a caller whose inputs are
-        already canonical (the env, every step): the pose as Python floats,
-        ``positions`` (N, 2) float64, ``ids`` (N,) integers and ``visible(row)``, the
-        occlusion test of one row (``None``: nothing occludes). Same steps, same draws."""
-        d, found = self._in_view(x, y, theta, positions)  # (row, r, φ), ascending row
+    ) -> tuple[list[int], list, list[tuple[float, float]]]:
+        """:meth:`sense` without its input checks and without building arrays, for a
+        caller whose inputs are already canonical (the env, every step): the pose as
+        Python floats, ``positions`` (N, 2) float64, ``ids`` the N landmark IDs as a
+        Python list, and ``visible(row)`` the occlusion test of one row (``None``:
+        nothing occludes). Same steps, same draws.
+
+        Returns the detections as three lists sorted by ID: their rows in
+        ``positions``, their IDs, and their ``z`` as tuples of Python floats.
+        """
+        dx, dy, found = self._in_view(x, y, theta, positions)  # (row, r, φ) ascending row
         if len(found) > 1:
-            all_ids = ids.tolist()
-            listed = [all_ids[f[0]] for f in found]
+            listed = [ids[f[0]] for f in found]
             if listed != sorted(listed):
                 # Python's sort is stable, like argsort(kind="stable"): equal IDs keep
                 # their row order.
@@ -248,7 +255,7 @@ class LandmarkSensor:
             found = [found[j] for j in sorted(by_range[: self.max_detections])]
         k = len(found)
         if k == 0:
-            return Detections(_EMPTY_Z.copy(), _EMPTY_I.copy(), _EMPTY_I.copy())
+            return [], [], []
         rows = [f[0] for f in found]
         # The k rows as Python floats: each value gets the arithmetic of the vectorised
         # z + σ·ε (one multiply, one add) and the same wrap, so the bits are the same.
@@ -264,13 +271,10 @@ class LandmarkSensor:
                     for (_, r, phi), (n0, n1) in zip(found, noise, strict=True)
                 ]
         else:
-            z = d.take(rows, axis=0).tolist()
+            z = list(zip(dx.take(rows).tolist(), dy.take(rows).tolist(), strict=True))
             if noise is not None:
                 z = [(a + n0 * s0, b + n1 * s1) for (a, b), (n0, n1) in zip(z, noise, strict=True)]
-        index = np.array(rows, dtype=np.int64)
-        return Detections(
-            np.array(z, dtype=np.float64), ids.take(index).astype(np.int64, copy=False), index
-        )
+        return rows, [ids[i] for i in rows], z
 
 
 class OdometrySensor:

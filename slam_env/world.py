@@ -12,10 +12,12 @@ because sideways motion is exactly what the seed's odometry model cannot describ
 lateral slip reads as δrot1 ≈ ±π/2, and the α1·δrot1² noise of such a reading would
 wreck any filter's heading). Moves are at most half the robot's radius, so no speed
 tunnels through anything. One query first checks whether anything is within reach of
-the whole step; in free space that is the only query.
+the whole step; in free space that is the only query, and often none is needed: each
+query also bounds the clearance around its point, which settles the next moves
+exactly (see :meth:`World._clearance`).
 
-The static geometry lives in pymunk; the robot's pose is three Python floats mirrored
-into its body, so a pickled world resumes bit-identically.
+The static geometry lives in pymunk; the robot's pose is three Python floats, mirrored
+into its body when the space is read, so a pickled world resumes bit-identically.
 """
 
 from __future__ import annotations
@@ -44,7 +46,7 @@ _TWO_PI = 2.0 * math.pi
 # Queries for the robot's motion see everything but the robot itself.
 _MOTION_FILTER = pymunk.ShapeFilter(mask=_ALL & ~CAT_ROBOT)
 # A clearance query looks this much farther (m) than it must, so that its answer also
-# settles the next few moves without a query (see World._is_clear).
+# settles the next few moves without a query (see World._clearance).
 CLEARANCE_LOOKAHEAD = 0.5
 # Slack (m) for round-off when a move is settled from an earlier query's answer; the
 # distances involved are exact to ~1e-15 m.
@@ -61,6 +63,9 @@ class World:
         substeps: pymunk steps per :meth:`step` (more when |v| is high, see module doc).
         wall_thickness: half-thickness (segment radius) of boundary and inner walls, m.
             The boundary walls lie outside the arena: their inner face is its edge.
+        validated: True when ``layout`` was already validated for this robot's radius
+            and this wall thickness (:func:`~slam_env.layouts.layout_for` does it), to
+            skip checking it again (about half a millisecond per world).
 
     Shapes: walls are static segments, obstacles static convex polygons, each landmark
     a static circle of radius :data:`LANDMARK_POST_RADIUS` (it blocks the robot and
@@ -74,6 +79,8 @@ class World:
         dt: float,
         substeps: int,
         wall_thickness: float = 0.1,
+        *,
+        validated: bool = False,
     ) -> None:
         if not isinstance(layout, Layout):
             raise TypeError(f"layout must be a Layout, got {type(layout).__name__}")
@@ -88,7 +95,8 @@ class World:
                 raise TypeError(f"{name} must be a number, got {type(value).__name__}")
             if not (math.isfinite(value) and value > 0):
                 raise ValueError(f"{name} must be finite and > 0, got {value!r}")
-        layout.validate(robot.radius, wall_thickness=float(wall_thickness))
+        if not validated:
+            layout.validate(robot.radius, wall_thickness=float(wall_thickness))
 
         self.layout = layout
         self.robot = robot
@@ -226,10 +234,10 @@ class World:
         n = max(self.substeps, math.ceil(abs(v) * self.dt / (MAX_MOVE_FRACTION * radius)))
         h = self.dt / n
         dth, travel = omega * h, v * h
-        query = self._space.point_query_nearest
-        is_clear = self._is_clear
+        clearance = self._clearance
         # Nothing within reach of the whole step: no need to check each move.
-        free = v == 0.0 or is_clear(x, y, radius + abs(v) * self.dt)
+        reach = radius + abs(v) * self.dt
+        free = v == 0.0 or clearance(x, y, reach) >= reach
         blocked = False
         cos, sin = math.cos, math.sin
         for _ in range(n):
@@ -239,42 +247,68 @@ class World:
             if travel == 0.0:
                 continue
             dx, dy = travel * cos(mid_heading), travel * sin(mid_heading)
-            if not free and not is_clear(x + dx, y + dy, radius):
-                blocked = True
-                # Bisect for the longest part of the move that keeps the robot clear.
-                lo, hi = 0.0, 1.0
-                for _ in range(CONTACT_BISECTIONS):
-                    mid = 0.5 * (lo + hi)
-                    if query((x + mid * dx, y + mid * dy), radius, _MOTION_FILTER) is None:
-                        lo = mid
-                    else:
-                        hi = mid
-                dx, dy = lo * dx, lo * dy
+            if not free:
+                gap = clearance(x + dx, y + dy, radius)
+                if gap < radius:
+                    blocked = True
+                    lo = self._contact(x, y, dx, dy, gap)
+                    dx, dy = lo * dx, lo * dy
             x += dx
             y += dy
         self._place(x, y, a)
         return blocked
 
-    def _is_clear(self, x: float, y: float, reach: float) -> bool:
-        """``point_query_nearest((x, y), reach, _MOTION_FILTER) is None``: nothing the
-        robot can hit is closer than ``reach`` to (x, y). Same answer, fewer queries.
+    def _clearance(self, x: float, y: float, reach: float) -> float:
+        """The distance from (x, y) to the nearest shape the robot can hit, exact when
+        below ``reach``, otherwise only a lower bound that is at least ``reach``: it is
+        below ``reach`` exactly when ``point_query_nearest((x, y), reach,
+        _MOTION_FILTER)`` finds a shape. Same answers as that query, fewer queries.
 
         The shapes never move, and the distance to a shape changes by at most as much
         as the point moves, so if nothing is closer than d to (cx, cy), nothing is
         closer than d − |p − c| to p. Each query therefore looks
         :data:`CLEARANCE_LOOKAHEAD` farther than it must and keeps the disk it found
-        empty (the nearest shape's distance, or its whole radius); a point whose reach
-        lies inside that disk needs no query. A query finds a shape within ``reach``
-        exactly when the nearest shape within the larger radius is closer than ``reach``.
+        empty (up to the nearest shape, or its whole radius); a point whose reach lies
+        inside that disk needs no query. A query finds a shape within ``reach`` exactly
+        when the nearest shape within the larger radius is closer than ``reach``.
         """
-        cx, cy, clearance = self._clear_disk
-        if math.hypot(x - cx, y - cy) + reach + _CLEARANCE_SLACK < clearance:
-            return True
+        cx, cy, clear = self._clear_disk
+        bound = clear - math.hypot(x - cx, y - cy) - _CLEARANCE_SLACK
+        if bound >= reach:
+            return bound
         radius = reach + CLEARANCE_LOOKAHEAD
         nearest = self._space.point_query_nearest((x, y), radius, _MOTION_FILTER)
-        clearance = radius if nearest is None else nearest.distance
-        self._clear_disk = (x, y, clearance)
-        return clearance >= reach
+        clear = radius if nearest is None else nearest.distance
+        self._clear_disk = (x, y, clear)
+        return clear
+
+    def _contact(self, x: float, y: float, dx: float, dy: float, gap: float) -> float:
+        """The longest fraction of the move (dx, dy) from (x, y) that keeps the robot
+        clear, bisected to 2⁻¹² of the move; the move's end is ``gap`` (< radius) from
+        the nearest shape.
+
+        Each midpoint is blocked when a point query finds a shape within the robot's
+        radius. A shape at distance d from a point is at most d + |p − q| from another
+        point q, so a midpoint that close to a point found blocked is blocked without
+        a query: the same answers, fewer queries.
+        """
+        radius = self.robot.radius
+        query = self._space.point_query_nearest
+        hx, hy, hd = x + dx, y + dy, gap  # the last point found blocked, its distance
+        lo, hi = 0.0, 1.0
+        for _ in range(CONTACT_BISECTIONS):
+            mid = 0.5 * (lo + hi)
+            px, py = x + mid * dx, y + mid * dy
+            if hd + math.hypot(px - hx, py - hy) + _CLEARANCE_SLACK < radius:
+                hi = mid
+                continue
+            nearest = query((px, py), radius, _MOTION_FILTER)
+            if nearest is None:
+                lo = mid
+            else:
+                hi = mid
+                hx, hy, hd = px, py, nearest.distance
+        return lo
 
     # ----------------------------------------------------------------- line of sight
 
@@ -282,15 +316,18 @@ class World:
         """True when the segment origin → target (each (2,), m) is not blocked by a wall,
         an obstacle or another landmark's post; the robot and the post of landmark
         ``landmark_index`` (its row in :attr:`landmark_positions`) are ignored."""
-        return self._segment_clear(
+        hit = self._space.segment_query_first(
             (float(origin[0]), float(origin[1])),
             (float(target[0]), float(target[1])),
-            landmark_index,
+            0.0,
+            self._los_filters[landmark_index],
         )
+        return hit is None
 
     def _landmark_visible_from(self, x: float, y: float, landmark_index: int) -> bool:
-        """:meth:`line_of_sight` from (x, y), Python floats, to the landmark itself: the
-        env's occlusion test, without converting arrays at every call."""
+        """``line_of_sight((x, y), <the landmark's position>, landmark_index)`` for a
+        point given as Python floats: the env's occlusion test, without converting
+        arrays at every call."""
         hit = self._space.segment_query_first(
             (x, y),
             self._landmark_points[landmark_index],
@@ -299,13 +336,19 @@ class World:
         )
         return hit is None
 
-    def _segment_clear(
-        self, origin: tuple[float, float], target: tuple[float, float], landmark_index: int
-    ) -> bool:
-        hit = self._space.segment_query_first(
-            origin, target, 0.0, self._los_filters[landmark_index]
-        )
-        return hit is None
+    def range_scan(
+        self, x: float, y: float, theta: float, angles: tuple[float, ...], max_range: float
+    ) -> list[float]:
+        """Distances (m, from the robot's centre, at most ``max_range``) to the first
+        wall, obstacle or post along each beam at ``angles`` (rad, robot frame): a
+        proximity sensor that lets a policy see what the landmark map cannot."""
+        query = self._space.segment_query_first
+        out = []
+        for a in angles:
+            end = (x + max_range * math.cos(theta + a), y + max_range * math.sin(theta + a))
+            hit = query((x, y), end, 0.0, _MOTION_FILTER)
+            out.append(max_range if hit is None else hit.alpha * max_range)
+        return out
 
     # ----------------------------------------------------------------- pickling
 

@@ -11,7 +11,7 @@ import numpy as np
 
 from slam_env import metrics
 from slam_env.belief import BeliefGeometry, EgocentricEncoding, FullEncoding
-from slam_env.ekf import EKFSLAM, chi2_gate
+from slam_env.ekf import CORRECTED, EKFSLAM, REJECTED, chi2_gate
 from slam_env.env import unpack_detections
 from slam_env.overlay import BeliefOverlay
 
@@ -20,6 +20,9 @@ CORRECTION_MODES = ("sequential", "batch")
 # The default validation gate: χ²(2 dof) at 99.9%. A noise-matched filter rejects one
 # good observation in a thousand, while a gross outlier (say 10σ) never passes.
 DEFAULT_GATE = chi2_gate(0.999)
+# This many gate rejections in a row, with no accepted correction between, means the
+# belief no longer explains what the robot sees.
+DIVERGENCE_REJECTIONS = 10
 # Covariance floor (m², rad²) of the entropy: uncertainty below 1 cm carries no
 # information worth paying for, and it keeps the entropy finite for an exactly
 # known start pose.
@@ -57,8 +60,12 @@ class EKFSLAMWrapper(gym.ObservationWrapper):
     ``map_rmse`` (m, over known landmarks; nan before the first), ``pose_nees``,
     ``landmarks_known``, ``rejected`` (observations the gate refused this episode),
     ``entropy`` (nats, see :meth:`belief_entropy`), ``pose_std`` (m, √trace of the
-    position covariance) and ``belief_clipped`` (the belief left the observation's
-    bounds: the filter has diverged).
+    position covariance), ``belief_clipped`` (the belief left the observation's
+    bounds), ``consecutive_rejections`` (observations of known landmarks the gate has
+    refused in a row) and ``diverged``: the filter has lost track, because the belief
+    was clipped, a correction failed numerically (it is then skipped, never applied as
+    NaN), or the gate refused ``DIVERGENCE_REJECTIONS`` observations in a row (after a
+    kidnapping, every landmark is where the belief says it cannot be).
     """
 
     def __init__(
@@ -109,7 +116,24 @@ class EKFSLAMWrapper(gym.ObservationWrapper):
         else:
             self._encoding = EgocentricEncoding(self._geometry)
         self.observation_space = self._encoding.space
+        # The raw proximity scan, if the env has one, is passed through: appended to the
+        # egocentric features, or as the "scan" key of the full belief.
+        self._scan_space = env.observation_space.spaces.get("scan")
+        if self._scan_space is not None:
+            if observation == "full":
+                self.observation_space = gym.spaces.Dict(
+                    {**self.observation_space.spaces, "scan": self._scan_space}
+                )
+            else:
+                space = self.observation_space
+                self.observation_space = gym.spaces.Box(
+                    np.concatenate([space.low, self._scan_space.low]),
+                    np.concatenate([space.high, self._scan_space.high]),
+                    dtype=np.float32,
+                )
         self._last_clipped = False
+        self._consecutive_rejections = 0
+        self._numerical_failure = False
 
     # ------------------------------------------------------------------ API
     def reset(
@@ -120,14 +144,16 @@ class EKFSLAMWrapper(gym.ObservationWrapper):
         self._truth_by_id = np.full((self._geometry.max_landmarks, 2), np.nan)
         self._truth_by_id[info["landmark_ids"]] = info["landmark_positions"]
         self.filter.reset(initial_pose=info["pose"], initial_pose_cov=self._initial_pose_cov)
+        self._consecutive_rejections = 0
+        self._numerical_failure = False
         self._correct(raw)
-        return self._observe(info)
+        return self._observe(raw, info)
 
     def step(self, action: Any) -> tuple[Any, SupportsFloat, bool, bool, dict[str, Any]]:
         raw, reward, terminated, truncated, info = self.env.step(action)
         self.filter.predict(raw["odometry"].astype(np.float64))
         self._correct(raw)
-        obs, info = self._observe(info)
+        obs, info = self._observe(raw, info)
         return obs, reward, terminated, truncated, info
 
     def observation(self, observation: Any) -> Any:
@@ -135,7 +161,15 @@ class EKFSLAMWrapper(gym.ObservationWrapper):
         already been folded into the filter by ``reset``/``step``)."""
         f = self.filter
         obs, self._last_clipped = self._encoding.encode(f.mean, f.cov, f.state_to_id)
-        return obs
+        return self._with_scan(obs, observation)
+
+    def _with_scan(self, obs: Any, raw: dict[str, np.ndarray]) -> Any:
+        if self._scan_space is None:
+            return obs
+        if self.observation_mode == "full":
+            obs["scan"] = raw["scan"].copy()
+            return obs
+        return np.concatenate([obs, raw["scan"]])
 
     def belief_entropy(self, cov: np.ndarray | None = None) -> float:
         """Entropy (nats) of the belief over the pose and all ``max_landmarks`` slots:
@@ -171,14 +205,29 @@ class EKFSLAMWrapper(gym.ObservationWrapper):
     # ------------------------------------------------------------------ helpers
     def _correct(self, raw: dict[str, np.ndarray]) -> None:
         z, ids = unpack_detections(raw)
-        if ids.size:
-            self.filter.update(z, ids)
+        if not ids.size:
+            return
+        try:
+            result = self.filter.update(z, ids)
+        except FloatingPointError:
+            # The filter refused an update that would break Σ (and left itself as it
+            # was): the belief has diverged; report it rather than hand out NaN.
+            self._numerical_failure = True
+            return
+        for status in result.status.tolist():
+            if status == REJECTED:
+                self._consecutive_rejections += 1
+            elif status == CORRECTED:
+                self._consecutive_rejections = 0
 
-    def _observe(self, info: dict[str, Any]) -> tuple[Any, dict[str, Any]]:
+    def _observe(
+        self, raw: dict[str, np.ndarray], info: dict[str, Any]
+    ) -> tuple[Any, dict[str, Any]]:
         """The belief observation and the diagnostics, from one copy of the state."""
         f = self.filter
         mean, cov, ids = f.mean, f.cov, f.state_to_id
         obs, clipped = self._encoding.encode(mean, cov, ids)
+        obs = self._with_scan(obs, raw)
         err = metrics.pose_error(mean, info["pose"])
         if ids.size:
             map_rmse = metrics.map_rmse(mean[3:].reshape(-1, 2), self._truth_by_id[ids])
@@ -193,6 +242,12 @@ class EKFSLAMWrapper(gym.ObservationWrapper):
         info["entropy"] = self.belief_entropy(cov)
         info["pose_std"] = math.sqrt(max(float(cov[0, 0] + cov[1, 1]), 0.0))
         info["belief_clipped"] = bool(clipped)
+        info["consecutive_rejections"] = self._consecutive_rejections
+        info["diverged"] = bool(
+            clipped
+            or self._numerical_failure
+            or self._consecutive_rejections >= DIVERGENCE_REJECTIONS
+        )
         return obs, info
 
 

@@ -14,6 +14,9 @@ def _feed(h: hashlib._Hash, value: Any) -> None:
         for key in sorted(value):
             h.update(str(key).encode())
             _feed(h, value[key])
+    elif isinstance(value, np.ndarray) and value.dtype == object:
+        for item in value.ravel().tolist():  # e.g. vector envs' final_obs/final_info
+            _feed(h, item)
     elif isinstance(value, np.ndarray):
         h.update(str(value.dtype).encode() + str(value.shape).encode())
         h.update(np.ascontiguousarray(value).tobytes())

@@ -16,6 +16,7 @@ from slam_env.geometry import (
     velocity_from_poses,
     world_to_robot,
     wrap_angle,
+    wrap_float,
 )
 
 PI = math.pi
@@ -30,6 +31,23 @@ def test_wrap_is_half_open_even_at_the_float_edge():
     for a in below.tolist():
         assert -PI <= wrap_angle(a) < PI
     assert wrap_angle(PI) == -PI
+
+
+def test_scalar_wraps_are_bitwise_the_array_wrap():
+    # The sensors wrap Python floats one by one; the stream must not depend on that.
+    rng = np.random.default_rng(0)
+    a = np.concatenate(
+        [
+            rng.uniform(-20.0, 20.0, 200_000),
+            PI + rng.normal(0.0, 1e-12, 20_000),
+            -PI + rng.normal(0.0, 1e-12, 20_000),
+            np.nextafter(-PI, -4.0) - np.arange(8) * 1e-16,
+            [PI, -PI, 0.0, -0.0, 2 * PI, -2 * PI, 1e-300, -1e-300],
+        ]
+    )
+    expected = wrap_angle(a)
+    assert np.array([wrap_float(v) for v in a.tolist()]).tobytes() == expected.tobytes()
+    assert np.array([wrap_angle(v) for v in a]).tobytes() == expected.tobytes()
 
 
 @given(finite)

@@ -22,6 +22,7 @@ import numpy as np
 import pytest
 
 from slam_env.config import OdometryConfig, SensorConfig
+from slam_env.geometry import wrap_angle
 from slam_env.sensors import (
     Detections,
     LandmarkSensor,
@@ -627,3 +628,95 @@ def test_noise_free_odometry_is_exact_and_perturb_checks_shape():
         assert np.array_equal(sensor.measure(p0, p1, RNG(0)), sensor.true_control(p0, p1)), model
         with pytest.raises(ValueError):
             sensor.perturb(np.zeros(sensor.dim + 1), RNG(0))
+
+
+# ---------------------------------------------------------------- fast paths
+# The sensors compute a few values per step as Python floats; these tests hold them
+# to the vectorised numpy formulas bit for bit (the seeded stream depends on it).
+
+
+def vectorised_sense(sensor, pose, pos, ids, rng, los=None):
+    """LandmarkSensor.sense as numpy array operations (its definition, step by step)."""
+    x, y, th = pose
+    c, s = math.cos(th), math.sin(th)
+    d = np.dot(pos, np.array([[c, -s], [s, c]]))
+    d -= (c * x + s * y, c * y - s * x)
+    rb = np.stack([np.hypot(d[:, 0], d[:, 1]), np.arctan2(d[:, 1], d[:, 0])], axis=-1)
+    mask = rb[:, 0] <= sensor.max_range
+    if sensor.fov < 2 * PI:
+        mask &= np.abs(rb[:, 1]) <= sensor.fov / 2
+    idx = mask.nonzero()[0]
+    idx = idx[np.argsort(ids[idx], kind="stable")]
+    if sensor.detection_prob < 1.0 and idx.size:
+        idx = idx[rng.random(idx.size) < sensor.detection_prob]
+    if los is not None:
+        idx = np.array([i for i in idx if los(np.array([x, y]), pos[i], i)], dtype=np.intp)
+    m = sensor.max_detections
+    if m is not None and idx.size > m:
+        idx = idx[np.sort(np.argsort(rb[idx, 0], kind="stable")[:m])]
+    z = (rb if sensor.model == "range_bearing" else d)[idx]
+    std = np.sqrt(np.diag(sensor.measurement_cov))
+    if idx.size and std.any():
+        z = z + rng.standard_normal((idx.size, 2)) * std
+    if sensor.model == "range_bearing":
+        z[:, 1] = wrap_angle(z[:, 1])
+    return z, ids[idx], idx
+
+
+@pytest.mark.parametrize("model", ["range_bearing", "cartesian"])
+@pytest.mark.parametrize("noisy", [True, False])
+def test_sense_is_bitwise_the_vectorised_formula(model, noisy):
+    rng = RNG(300)
+    for trial in range(200):
+        cfg = SensorConfig(
+            measurement_model=model,
+            max_range=float(rng.uniform(1.0, 8.0)),
+            fov=float(rng.choice([2 * PI, rng.uniform(0.2, 2 * PI)])),
+            range_std=0.05 * noisy,
+            bearing_std=0.02 * noisy,
+            cartesian_std=0.05 * noisy,
+            detection_prob=float(rng.choice([1.0, 0.7])),
+            max_detections=[None, 2, 5][trial % 3],
+        )
+        sensor = LandmarkSensor(cfg)
+        n = int(rng.integers(0, 30))
+        pos = rng.uniform(-6, 6, (n, 2))
+        ids = rng.permutation(n) if trial % 2 else np.arange(n)
+        pose = tuple(float(v) for v in rng.uniform(-2, 2, 3))
+        los = None if trial % 4 else (lambda o, t, i: (i % 3) != 1)
+        r1, r2 = RNG(trial), RNG(trial)
+        det = sensor.sense(pose, pos, ids, r1, los)
+        z, got_ids, idx = vectorised_sense(sensor, pose, pos, ids, r2, los)
+        assert det.z.tobytes() == z.tobytes(), trial
+        assert det.ids.tolist() == got_ids.tolist() and det.index.tolist() == idx.tolist()
+        assert r1.bit_generator.state == r2.bit_generator.state  # same draws
+
+
+def test_private_scan_is_what_sense_returns():
+    sensor = LandmarkSensor(SensorConfig(max_range=6.0, fov=4.0, detection_prob=0.8))
+    pos = RNG(301).uniform(-6, 6, (25, 2))
+    ids = RNG(302).permutation(25)
+    for t in range(50):
+        pose = (0.1 * t, -0.2 * t, 0.37 * t)
+        det = sensor.sense(pose, pos, ids, RNG(t))
+        rows, scan_ids, z = sensor._scan(*pose, pos, ids.tolist(), RNG(t), None)
+        assert det.index.tolist() == rows and det.ids.tolist() == scan_ids
+        assert det.z.tobytes() == np.array(z, dtype=np.float64).reshape(-1, 2).tobytes()
+
+
+@pytest.mark.parametrize("model", ["odometry", "velocity"])
+def test_perturb_is_bitwise_the_vectorised_formula(model):
+    sensor = OdometrySensor(OdometryConfig(motion_model=model))
+    rng = RNG(303)
+    for t in range(500):
+        u = rng.normal(0.0, [1.0, 0.5, 3.0][: sensor.dim]) * rng.choice([0.0, 1e-3, 1.0])
+        r1, r2 = RNG(t), RNG(t)
+        out = sensor.perturb(u, r1)
+        expected = u + np.sqrt(np.diagonal(sensor.noise_cov(u))) * r2.standard_normal(sensor.dim)
+        for i in sensor.angle_indices:
+            expected[i] = wrap_angle(expected[i])
+        assert out.dtype == np.float64 and out.tobytes() == expected.tobytes()
+        assert sensor._perturb(tuple(u.tolist()), RNG(t)) == tuple(out.tolist())
+        pose0, pose1 = (0.5, -0.2, 0.1), (0.5 + float(u[0]), float(u[-1]), 0.3 * t)
+        fast = sensor._true_control(pose0, pose1)
+        assert fast == tuple(sensor.true_control(pose0, pose1).tolist())

@@ -21,7 +21,7 @@ from slam_env.layouts import (
     preset_layout,
     random_layout,
 )
-from slam_env.world import LANDMARK_POST_RADIUS, World
+from slam_env.world import _MOTION_FILTER, CONTACT_BISECTIONS, LANDMARK_POST_RADIUS, World
 
 ROBOT = RobotConfig()  # radius 0.25 m, max speed 1 m/s
 R = ROBOT.radius
@@ -405,3 +405,108 @@ def test_pickle_keeps_line_of_sight_and_collision_reporting() -> None:
     assert clone.step(1.0, 0.0) and w.step(1.0, 0.0)
     assert not clone.line_of_sight((2.0, 2.5), clone.landmark_positions[0], 0)
     assert clone.line_of_sight((7.5, 4.0), clone.landmark_positions[0], 0)
+
+
+# ----------------------------------------------------------------------------- fast paths
+# World.step answers its point queries from earlier answers where it can (clearance
+# disks, bisection bounds); these tests hold it to what the plain queries would say.
+
+
+def reference_step(w: World, v: float, omega: float) -> tuple[bool, tuple[float, float, float]]:
+    """World.step written with one plain point query per question (the definition):
+    returns (blocked, new pose) without moving ``w``."""
+    query = w.space.point_query_nearest
+    x, y, a = w.pose
+    n = max(SUBSTEPS, math.ceil(abs(v) * DT / (0.5 * R)))
+    h = DT / n
+    dth, travel = omega * h, v * h
+    free = v == 0.0 or query((x, y), R + abs(v) * DT, _MOTION_FILTER) is None
+    blocked = False
+    for _ in range(n):
+        mid_heading = a + 0.5 * dth
+        a += dth
+        if travel == 0.0:
+            continue
+        dx, dy = travel * math.cos(mid_heading), travel * math.sin(mid_heading)
+        if not free and query((x + dx, y + dy), R, _MOTION_FILTER) is not None:
+            blocked = True
+            lo, hi = 0.0, 1.0
+            for _ in range(CONTACT_BISECTIONS):
+                mid = 0.5 * (lo + hi)
+                if query((x + mid * dx, y + mid * dy), R, _MOTION_FILTER) is None:
+                    lo = mid
+                else:
+                    hi = mid
+            dx, dy = lo * dx, lo * dy
+        x += dx
+        y += dy
+    return blocked, (x, y, (a + math.pi) % (2 * math.pi) - math.pi)
+
+
+@pytest.mark.parametrize("which", ["random", "cluttered", "rooms"])
+def test_step_is_bit_identical_to_plain_queries(which) -> None:
+    layout = (
+        random_layout(WorldConfig(n_obstacles=10), R, np.random.default_rng(4))
+        if which == "random"
+        else preset_layout(which, WorldConfig())
+    )
+    w = World(layout, ROBOT, DT, SUBSTEPS, T)
+    rng = np.random.default_rng(5)
+    n_blocked = 0
+    for i in range(1500):
+        # long pushes into things, reversing, turning in place, fast moves
+        v = 1.0 if i % 40 < 30 else float(rng.choice([-0.7, 0.0, 3.0, rng.uniform(-1, 1)]))
+        omega = float(rng.uniform(-1.5, 1.5)) if i % 5 else 0.0
+        expected = reference_step(w, v, omega)
+        assert (w.step(v, omega), w.pose) == expected, f"step {i}"
+        n_blocked += expected[0]
+    assert n_blocked > 50  # the bisection was exercised
+
+
+def test_clearance_answers_like_a_point_query() -> None:
+    w = World(preset_layout("cluttered", WorldConfig()), ROBOT, DT, SUBSTEPS, T)
+    rng = np.random.default_rng(6)
+    x, y = w.pose[:2]
+    for _ in range(3000):
+        # a random walk, so that consecutive points share clearance disks
+        x = min(max(x + rng.normal(0, 0.1), 0.3), w.layout.width - 0.3)
+        y = min(max(y + rng.normal(0, 0.1), 0.3), w.layout.height - 0.3)
+        reach = float(rng.uniform(0.05, 0.6))
+        hit = w.space.point_query_nearest((x, y), reach, _MOTION_FILTER)
+        clearance = w._clearance(x, y, reach)
+        assert (clearance < reach) == (hit is not None)
+        if hit is not None:
+            assert clearance == hit.distance
+
+
+def test_space_shows_the_robot_at_its_pose() -> None:
+    w = world()
+    for _ in range(7):
+        w.step(1.0, 0.5)
+    body = next(b for b in w.space.bodies if b.body_type == b.KINEMATIC)
+    assert (body.position.x, body.position.y, body.angle) == w.pose
+    w.set_pose(3.0, 3.0, 1.0)
+    assert w.space is not None  # reading the space brings the body up to date
+    assert (body.position.x, body.position.y, body.angle) == (3.0, 3.0, 1.0)
+    clone = pickle.loads(pickle.dumps(w))
+    body = next(b for b in clone.space.bodies if b.body_type == b.KINEMATIC)
+    assert (body.position.x, body.position.y, body.angle) == clone.pose
+
+
+def test_landmark_visible_from_matches_line_of_sight() -> None:
+    w = World(preset_layout("cluttered", WorldConfig()), ROBOT, DT, SUBSTEPS, T)
+    rng = np.random.default_rng(7)
+    pos = w.landmark_positions
+    for _ in range(500):
+        x, y = rng.uniform(0, w.layout.width), rng.uniform(0, w.layout.height)
+        i = int(rng.integers(len(pos)))
+        assert w._landmark_visible_from(x, y, i) == w.line_of_sight((x, y), pos[i], i)
+
+
+def test_validated_layout_skips_only_the_check() -> None:
+    bad = arena(start_pose=(5.0, 2.5, 0.0))  # the robot would start inside the wall
+    with pytest.raises(ValueError):
+        World(bad, ROBOT, DT, SUBSTEPS, T)
+    good = arena()
+    a, b = World(good, ROBOT, DT, SUBSTEPS, T), World(good, ROBOT, DT, SUBSTEPS, T, validated=True)
+    assert drive(a, 100, seed=2) == drive(b, 100, seed=2)
