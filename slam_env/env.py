@@ -13,6 +13,7 @@ from gymnasium.error import ResetNeeded
 
 from slam_env.actions import DISCRETE_PRIMITIVES, parse_action
 from slam_env.config import EnvConfig, make_config
+from slam_env.faults import corrupt_odometry, corrupt_scan, kidnap_pose
 from slam_env.layouts import Layout, layout_for
 from slam_env.sensors import LandmarkSensor, OdometrySensor
 from slam_env.world import World
@@ -133,6 +134,7 @@ class LandmarksEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         self.max_detections = cfg.sensor.max_detections or self.n_landmarks
 
         self.sensor = LandmarkSensor(cfg.sensor)
+        self._faults_on = cfg.faults.any
         self.odometry = OdometrySensor(cfg.odometry)
 
         if cfg.action_type == "continuous":
@@ -259,15 +261,24 @@ class LandmarksEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         )
         pose1 = self._world.pose
         self._last_collision = collided
-        if self.render_mode is not None:
-            self._trail.append((pose1[0], pose1[1]))
 
         # Observe: odometry of the motion just made, then the landmark sensor. The
         # private sensor methods skip the checks of the public ones (the env's inputs
         # are well-formed by construction) and work on plain floats.
         true_control = self.odometry._true_control(pose0, pose1)
         control = self.odometry._perturb(true_control, self.np_random)
+        kidnapped = False
+        if self._faults_on:
+            control = corrupt_odometry(control, cfg.faults, self.np_random)
+            kidnapped = self._maybe_kidnap()
+            pose1 = self._world.pose
+        if self.render_mode is not None:
+            self._trail.append((pose1[0], pose1[1]))
         _, det_ids, z = self._sense(pose1)
+        if self._faults_on:
+            det_ids, z = corrupt_scan(
+                det_ids, z, self._seen, cfg.faults, cfg.sensor, self.np_random
+            )
         n_new = self._mark_seen(det_ids)
 
         # Reward terms, then episode end.
@@ -280,9 +291,20 @@ class LandmarksEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         if self._scan_angles:
             obs["scan"] = self._scan(pose1)
         info = self._get_info(pose1, true_control, terms)
+        if self._faults_on:
+            info["kidnapped"] = kidnapped
         if self.render_mode == "human":
             self.render()
         return obs, reward, terminated, False, info
+
+    def _maybe_kidnap(self) -> bool:
+        rate = self.config.faults.kidnap_rate
+        if rate > 0.0 and self.np_random.random() < rate:
+            pose = kidnap_pose(self._world, self.np_random)
+            if pose is not None:
+                self._world.set_pose(*pose)
+                return True
+        return False
 
     def render(self) -> np.ndarray | None:
         if self.render_mode is None:

@@ -24,46 +24,58 @@ import math
 import numpy as np
 
 from slam_env.config import FaultConfig, SensorConfig
-from slam_env.sensors import Detections
+
+# Tries at drawing a free pose for a kidnapping before giving up on it for the step.
+KIDNAP_TRIES = 100
 
 
-def inject_outlier(
-    detections: Detections,
-    seen_ids: np.ndarray,
+def corrupt_scan(
+    ids: list[int],
+    z: list[tuple[float, float]],
+    seen: np.ndarray,
+    faults: FaultConfig,
     sensor: SensorConfig,
     rng: np.random.Generator,
-) -> Detections:
-    """Append one spurious detection with the ID of a landmark seen before (``seen_ids``)
-    but not in this scan; unchanged if there is no such landmark."""
-    candidates = np.setdiff1d(seen_ids, detections.ids)
-    if candidates.size == 0:
-        return detections
-    lid = int(candidates[rng.integers(candidates.size)])
-    r = float(rng.uniform(0.5, sensor.max_range))
-    phi = float(rng.uniform(-0.5, 0.5) * min(sensor.fov, 2.0 * math.pi - 1e-9))
-    if sensor.measurement_model == "range_bearing":
-        z = (r, phi)
-    else:
-        z = (r * math.cos(phi), r * math.sin(phi))
-    ids = np.append(detections.ids, lid)
-    order = np.argsort(ids, kind="stable")  # keep the stream sorted by ID
-    all_z = np.vstack([detections.z, z])[order]
-    index = np.append(detections.index, -1)[order]  # -1: no landmark behind it
-    return Detections(all_z, ids[order], index)
+) -> tuple[list[int], list[tuple[float, float]]]:
+    """The scan (IDs ascending, measurements) after the scan dropout and the spurious
+    detection. ``seen`` (M,) bool marks the IDs detected earlier in the episode."""
+    if faults.scan_dropout > 0.0 and rng.random() < faults.scan_dropout:
+        return [], []
+    if faults.outlier_rate > 0.0 and rng.random() < faults.outlier_rate:
+        candidates = np.flatnonzero(seen)
+        candidates = candidates[~np.isin(candidates, ids)]
+        if candidates.size:
+            lid = int(candidates[rng.integers(candidates.size)])
+            r = float(rng.uniform(0.5, sensor.max_range))
+            phi = float(rng.uniform(-0.5, 0.5) * min(sensor.fov, 2.0 * math.pi - 1e-9))
+            if sensor.measurement_model == "range_bearing":
+                spurious = (r, phi)
+            else:
+                spurious = (r * math.cos(phi), r * math.sin(phi))
+            rows = sorted([*zip(ids, z, strict=True), (lid, spurious)])
+            ids = [i for i, _ in rows]
+            z = [m for _, m in rows]
+    return ids, z
 
 
-def drop_scan(detections: Detections) -> Detections:
-    empty = np.zeros(0, dtype=np.int64)
-    return Detections(np.zeros((0, 2)), empty, empty.copy())
-
-
-def odometry_faults(
-    control: np.ndarray, faults: FaultConfig, rng: np.random.Generator
-) -> np.ndarray:
-    """The odometry reading after dropout and bias (a new array)."""
-    out = np.array(control, dtype=np.float64)
+def corrupt_odometry(
+    control: tuple[float, ...], faults: FaultConfig, rng: np.random.Generator
+) -> tuple[float, ...]:
+    """The odometry reading after the dropout and the bias."""
     if faults.odometry_dropout > 0.0 and rng.random() < faults.odometry_dropout:
-        out[:] = 0.0
+        control = (0.0,) * len(control)
     if faults.odometry_bias is not None:
-        out += faults.odometry_bias
-    return out
+        control = tuple(u + b for u, b in zip(control, faults.odometry_bias, strict=True))
+    return control
+
+
+def kidnap_pose(world, rng: np.random.Generator) -> tuple[float, float, float] | None:
+    """A random collision-free pose in the world's arena, or None if none was found."""
+    layout = world.layout
+    r = world.robot_radius
+    for _ in range(KIDNAP_TRIES):
+        x = float(rng.uniform(r, layout.width - r))
+        y = float(rng.uniform(r, layout.height - r))
+        if world.is_free(x, y, margin=0.05):
+            return x, y, float(rng.uniform(-math.pi, math.pi))
+    return None

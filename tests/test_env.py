@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import pickle
 import subprocess
 import sys
@@ -290,3 +291,19 @@ def test_returned_arrays_are_fresh_and_typed(kwargs):
             trace.append(digest(obs, reward, terminated, truncated, info))
         outputs[name] = trace
     assert outputs["clean"] == outputs["dirty"]
+
+
+def test_proximity_scan_is_optional_and_normalised():
+    assert "scan" not in gym.make(ENV_ID).observation_space.spaces
+    layout = {"width": 10.0, "height": 10.0, "landmarks": [[9.5, 9.5]], "start": [3.0, 5.0, 0.4]}
+    env = gym.make(ENV_ID, layout=layout, scan_beams=8, scan_range=4.0)
+    obs, _ = env.reset(seed=0)
+    assert obs["scan"].shape == (8,) and env.observation_space.contains(obs)
+    # Beam i points at −π + 2π(i + ½)/8 from the heading; only the arena's walls are
+    # near, so each reading is the distance to the boundary (capped at the range).
+    for i, reading in enumerate(obs["scan"].tolist()):
+        a = 0.4 - math.pi + 2 * math.pi * (i + 0.5) / 8
+        c, s = math.cos(a), math.sin(a)
+        to_x = (0.0 - 3.0) / c if c < 0 else (10.0 - 3.0) / c
+        to_y = (0.0 - 5.0) / s if s < 0 else (10.0 - 5.0) / s
+        assert reading == pytest.approx(min(to_x, to_y, 4.0) / 4.0, abs=1e-6)

@@ -510,3 +510,19 @@ def test_validated_layout_skips_only_the_check() -> None:
     good = arena()
     a, b = World(good, ROBOT, DT, SUBSTEPS, T), World(good, ROBOT, DT, SUBSTEPS, T, validated=True)
     assert drive(a, 100, seed=2) == drive(b, 100, seed=2)
+
+
+def test_range_scan_measures_the_free_distance() -> None:
+    w = world()
+    w.set_pose(2.0, 5.0, 0.0)
+    angles = (0.0, math.pi / 2, math.pi, -math.pi / 2)
+    ahead, left, behind, right = w.range_scan(*w.pose, angles, 3.0)
+    assert behind == pytest.approx(2.0, abs=1e-9)  # the boundary at x = 0
+    assert ahead == 3.0  # nothing within reach
+    assert left == 3.0 and right == 3.0
+    w.set_pose(8.0, 5.0, 0.0)
+    (ahead,) = w.range_scan(*w.pose, (0.0,), 3.0)
+    assert ahead == pytest.approx(2.0, abs=1e-9)  # the boundary at x = 10
+    # Posts and obstacles block beams too: the box [6, 7]² seen from (3, 6.5).
+    (box,) = w.range_scan(3.0, 6.5, 0.0, (0.0,), 5.0)
+    assert box == pytest.approx(3.0, abs=1e-9)
