@@ -20,7 +20,7 @@ demo: setup  ## the main job: an exploration episode on the default world, metri
 	SDL_VIDEODRIVER=dummy $(VENV)/bin/slam-env demo --out $(OUT)
 
 test: setup  ## the default test suite (what CI runs)
-	SDL_VIDEODRIVER=dummy $(PY) -m pytest -n 2 -q
+	SDL_VIDEODRIVER=dummy $(PY) -m pytest -n 2 -q -m "not slow"
 
 test-slow: setup  ## long runs: soak, long NEES, training
 	SDL_VIDEODRIVER=dummy $(PY) -m pytest -n 2 -q -m slow

@@ -1,4 +1,4 @@
-"""The agent interface and the simplest agent."""
+"""The agent interface, the base of the untrained agents, and the simplest agent."""
 
 from __future__ import annotations
 
@@ -25,12 +25,12 @@ class Agent(Protocol):
     ) -> tuple[np.ndarray, Any]: ...
 
 
-class RandomAgent:
-    """Uniform random actions from the env's action space, seeded explicitly."""
+class ScriptedAgent:
+    """Base of the agents that are not trained: SB3's ``predict`` around :meth:`_action`.
 
-    def __init__(self, env: gym.Env, seed: int | None = None) -> None:
-        self.action_space = env.action_space
-        self.rng = np.random.default_rng(seed)
+    They act on the env they were made with, not on ``observation``, and pass
+    ``state`` through unchanged.
+    """
 
     def predict(
         self,
@@ -39,8 +39,22 @@ class RandomAgent:
         episode_start: Any = None,
         deterministic: bool = False,
     ) -> tuple[np.ndarray, Any]:
+        return self._action(episode_start), state
+
+    def _action(self, episode_start: Any) -> np.ndarray:
+        """The next action; ``episode_start`` as SB3 passes it (None, bool or array)."""
+        raise NotImplementedError
+
+
+class RandomAgent(ScriptedAgent):
+    """Uniform random actions from the env's action space, seeded explicitly."""
+
+    def __init__(self, env: gym.Env, seed: int | None = None) -> None:
+        self.action_space = env.action_space
+        self.rng = np.random.default_rng(seed)
+
+    def _action(self, episode_start: Any) -> np.ndarray:
         space = self.action_space
         if isinstance(space, gym.spaces.Discrete):
-            return np.int64(self.rng.integers(space.n)), state
-        action = self.rng.uniform(space.low, space.high).astype(space.dtype)
-        return action, state
+            return np.int64(self.rng.integers(space.n))
+        return self.rng.uniform(space.low, space.high).astype(space.dtype)

@@ -2,24 +2,18 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
-from typing import Any
 
-import gymnasium as gym
 import numpy as np
 
+from agents.heuristic import HeuristicAgent, HeuristicParams
 from agents.navigation import (
     ControllerParams,
-    EpisodeWatch,
-    ExplorationMemory,
     PathFollower,
-    StuckDetector,
-    belief_env,
     box_sum,
     dijkstra,
-    is_truthy,
-    make_params,
     path_from_parents,
     unicycle_control,
 )
@@ -29,23 +23,13 @@ EXPLORE, LOCALISE, REFINE = "explore", "localise", "refine"
 
 
 @dataclass(frozen=True)
-class FrontierParams:
-    """Parameters of :class:`FrontierAgent` (units in the comments)."""
+class FrontierParams(HeuristicParams):
+    """Parameters of :class:`FrontierAgent` (units in the comments), beyond (and with the
+    defaults of) :class:`~agents.heuristic.HeuristicParams`."""
 
-    planning_resolution: float = 0.25  # m, planning grid cell
-    coverage_resolution: float = 0.5  # m, coverage grid cell
-    safety_margin: float = 0.07  # m, inflation of the known map beyond the robot radius
-    soft_clearance: float = 0.8  # m, paths closer than this to the known map cost more
-    proximity_cost: float = 3.0  # extra cost factor at the inflation boundary
-    range_margin: float = 0.4  # m, a cell is swept when its centre is this far inside range
-    fov_margin: float = math.radians(4.0)  # rad, and this far inside the FOV edges
-    gain_radius: float = 1.5  # m, half-side of the window whose unswept area a target gains
     gain_weight: float = 1.5  # m of path traded per m² of unswept area at the target
-    min_gain: float = 1.0  # m², a target with less unswept area around it is done
     turn_weight: float = 1.0  # m of path traded per rad of turn toward a target
     switch_margin: float = 1.0  # m, a new target must score this much better than the current
-    lookahead: float = 0.6  # m, pure-pursuit look-ahead along the path
-    replan_interval: int = 10  # steps between re-plans of the current target
     goal_tolerance: float = 0.35  # m, a target is reached this close
     look_tolerance: float = math.radians(20.0)  # rad, facing a look-at point this well
     look_timeout: int = 15  # steps spent turning toward a look-at point at most
@@ -57,18 +41,12 @@ class FrontierParams:
     max_detour: float = 5.0  # m, loop closing only uses landmarks with a viewpoint this near
     view_distance: tuple[float, float] = (1.0, 3.0)  # m, viewpoint ring around a landmark
     uncertainty_weight: float = 10.0  # m of path per m of landmark σ (landmark choice)
-    stuck_steps: int = 4  # steps of commanded motion without progress before backing off
-    recovery_steps: int = 6  # steps of backing off when stuck
     cruise: float = 1.0  # fraction of max speed when aligned with the path
-    turn_limit: float = 0.5  # fraction of the max turn rate used (gentle turns: less drift)
-    bump_radius: float = 0.5  # m, disc blocked ahead of the robot when it gets stuck
 
     def __post_init__(self) -> None:
-        positive = (
-            "planning_resolution",
-            "coverage_resolution",
-            "gain_radius",
-            "lookahead",
+        super().__post_init__()
+        self._require_counts("look_timeout", "loop_close_timeout")
+        self._require_positive(
             "goal_tolerance",
             "look_tolerance",
             "loop_close_std",
@@ -76,39 +54,10 @@ class FrontierParams:
             "loop_close_step",
             "max_detour",
             "cruise",
-            "turn_limit",
-            "bump_radius",
         )
-        for name in positive:
-            value = getattr(self, name)
-            if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
-                raise ValueError(f"FrontierParams.{name} must be finite and > 0, got {value!r}")
-        for name in (
-            "replan_interval",
-            "loop_close_timeout",
-            "stuck_steps",
-            "recovery_steps",
-            "look_timeout",
-        ):
-            value = getattr(self, name)
-            if not isinstance(value, int) or value < 1:
-                raise ValueError(f"FrontierParams.{name} must be an int >= 1, got {value!r}")
-        for name in (
-            "safety_margin",
-            "soft_clearance",
-            "proximity_cost",
-            "range_margin",
-            "fov_margin",
-            "gain_weight",
-            "min_gain",
-            "turn_weight",
-            "switch_margin",
-            "useful_ratio",
-            "uncertainty_weight",
-        ):
-            value = getattr(self, name)
-            if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):
-                raise ValueError(f"FrontierParams.{name} must be finite and >= 0, got {value!r}")
+        self._require_non_negative(
+            "gain_weight", "turn_weight", "switch_margin", "useful_ratio", "uncertainty_weight"
+        )
         if self.loop_close_done_std > self.loop_close_std:
             raise ValueError("FrontierParams.loop_close_done_std must be <= loop_close_std")
         lo, hi = self.view_distance
@@ -116,7 +65,7 @@ class FrontierParams:
             raise ValueError("FrontierParams.view_distance must be (lo, hi), 0 <= lo < hi")
 
 
-class FrontierAgent:
+class FrontierAgent(HeuristicAgent):
     """Frontier exploration on the EKF-SLAM belief, with loop closing.
 
     Each step the agent sweeps a coarse coverage grid with the sensor footprint (range,
@@ -135,14 +84,9 @@ class FrontierAgent:
     pose), within ``max_detour``, cheapest to reach and best known, and faces it,
     until σ falls below ``loop_close_done_std`` (or ``loop_close_timeout`` passes: it
     then explores on and retries only once σ has grown by ``loop_close_step``). Once
-    nothing is left to sweep it revisits the least certain landmarks in turn. If it
-    runs into something the map does not show (it commands motion and the estimate
-    does not move), it remembers an obstacle there and backs off.
-
-    It reads only the belief (``env.unwrapped.filter``), the known map
-    (``raw_env.layout`` obstacles and walls) and the env's configuration; never the
-    true pose or landmark positions. Deterministic given ``seed``, which seeds its own
-    generator (used to pick a side when it backs off something it ran into).
+    nothing is left to sweep it revisits the least certain landmarks in turn. What
+    it reads, how it notices episodes and how it backs off something it ran into:
+    see :class:`~agents.heuristic.HeuristicAgent`. Deterministic given ``seed``.
 
     Args:
         env: a ``slam_env/ActiveSLAM-v0`` env (continuous actions).
@@ -150,55 +94,13 @@ class FrontierAgent:
         **params: overrides of :class:`FrontierParams`.
     """
 
-    def __init__(self, env: gym.Env, seed: int | None = None, **params: Any) -> None:
-        self._base = belief_env(env)
-        self.params: FrontierParams = make_params(FrontierParams, params)
-        self.rng = np.random.default_rng(seed)
-        cfg = self._base.config
-        self._control = ControllerParams(
-            max_speed=cfg.robot.max_speed,
-            max_turn_rate=cfg.robot.max_turn_rate,
-            dt=cfg.dt,
-            cruise=self.params.cruise,
-            turn_limit=self.params.turn_limit,
-        )
-        self._watch = EpisodeWatch()
-        self._memory: ExplorationMemory | None = None
+    params_class = FrontierParams
+    params: FrontierParams
 
-    # ------------------------------------------------------------------ interface
-    def predict(
-        self,
-        observation: Any,
-        state: Any = None,
-        episode_start: Any = None,
-        deterministic: bool = False,
-    ) -> tuple[np.ndarray, Any]:
-        """The next action, float32 (2,) in [−1, 1]; ``state`` is passed through."""
-        base = self._base
-        if is_truthy(episode_start) or self._memory is None or self._watch.is_new(base):
-            self.reset()
-        action = np.clip(self._act(), -1.0, 1.0).astype(np.float32)
-        self._last_speed = float(action[0])
-        self._watch.mark(base)
-        return action, state
+    def _controller(self) -> ControllerParams:
+        return dataclasses.replace(super()._controller(), cruise=self.params.cruise)
 
-    def reset(self) -> None:
-        """Forget the episode: rebuild the maps from the current layout."""
-        base = self._base
-        p = self.params
-        self._memory = ExplorationMemory(
-            base.raw_env.layout,
-            base.config,
-            planning_resolution=p.planning_resolution,
-            coverage_resolution=p.coverage_resolution,
-            safety_margin=p.safety_margin,
-            soft_clearance=p.soft_clearance,
-            proximity_cost=p.proximity_cost,
-            range_margin=p.range_margin,
-            fov_margin=p.fov_margin,
-        )
-        cg = self._memory.coverage.grid
-        self._gain_cells = max(1, round(p.gain_radius / cg.resolution))
+    def _new_episode(self) -> None:
         self._mode = EXPLORE
         self._follower: PathFollower | None = None
         self._look_at: np.ndarray | None = None
@@ -207,24 +109,13 @@ class FrontierAgent:
         self._since_plan = 0
         self._mode_steps = 0
         self._tried: set[int] = set()
-        self._n_posts = -1
-        self._recovery = 0
         self._cooldown = 0
         self._trigger = self.params.loop_close_std
-        cfg = self._base.config
-        self._stuck = StuckDetector(p.stuck_steps, step_length=cfg.robot.max_speed * cfg.dt)
-        self._last_speed = 0.0
-        self._watch.forget()
 
     @property
     def mode(self) -> str:
         """``"explore"``, ``"localise"`` (closing a loop) or ``"refine"`` (all swept)."""
         return self._mode
-
-    @property
-    def memory(self) -> ExplorationMemory | None:
-        """The episode's maps (planning grid, coverage)."""
-        return self._memory
 
     @property
     def goal(self) -> np.ndarray | None:
@@ -239,27 +130,20 @@ class FrontierAgent:
     # ------------------------------------------------------------------ decision
     def _act(self) -> np.ndarray:
         p = self.params
-        mem = self._memory
-        assert mem is not None
         f = self._base.filter
         pose = f.pose
-        cov = f.pose_cov
-        sigma = math.sqrt(max(cov[0, 0] + cov[1, 1], 0.0))
-        mem.coverage.sweep(pose)
-        if f.n_landmarks != self._n_posts:
-            mem.set_posts(f.landmark_means())
-            self._n_posts = f.n_landmarks
-            if self._follower is not None and not mem.is_free_at(self._follower.points[1:]).all():
+        sigma = self._sigma()
+        if self._update_maps(pose) and self._follower is not None:
+            path = self._follower.points[1:]
+            if not self._memory.is_free_at(path).all():
                 self._follower = None  # a new post blocks the path
         self._since_plan += 1
         self._mode_steps += 1
         self._cooldown = max(self._cooldown - 1, 0)
 
-        if self._recovery > 0:
-            self._recovery -= 1
-            return self._recovery_action
-        if self._stuck.update(pose, self._last_speed):
-            return self._start_recovery()
+        backing_off = self._backing_off(pose)
+        if backing_off is not None:
+            return backing_off
 
         # Close a loop when lost; stop when localised again. A loop closure that
         # timed out is not retried for as long again.
@@ -485,16 +369,7 @@ class FrontierAgent:
         self._look_at = None
         self._since_plan = self.params.replan_interval
 
-    def _start_recovery(self) -> np.ndarray:
-        # Something unmapped (where the robot thinks it is) blocks the way: remember it.
-        pose = self._base.filter.pose
-        reach = self._base.config.robot.radius + 0.5 * self.params.bump_radius
-        ahead = pose[:2] + reach * np.array([math.cos(pose[2]), math.sin(pose[2])])
-        self._memory.add_bump(ahead, self.params.bump_radius + self._memory.inflation)
+    def _drop_plan(self) -> None:
         self._follower = None
         self._look_at = None
-        self._recovery = self.params.recovery_steps - 1
-        turn = 0.6 if self.rng.random() < 0.5 else -0.6
-        self._recovery_action = np.array([-0.5, turn], dtype=np.float32)
         self._since_plan = self.params.replan_interval
-        return self._recovery_action

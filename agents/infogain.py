@@ -3,25 +3,15 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Iterator
 from dataclasses import dataclass
 from typing import Any
 
 import gymnasium as gym
 import numpy as np
 
-from agents.navigation import (
-    ControllerParams,
-    EpisodeWatch,
-    ExplorationMemory,
-    PathFollower,
-    StuckDetector,
-    belief_env,
-    box_sum,
-    dijkstra,
-    is_truthy,
-    make_params,
-    nearest_passable,
-)
+from agents.heuristic import HeuristicAgent, HeuristicParams
+from agents.navigation import PathFollower, box_sum, dijkstra, nearest_passable
 from slam_env.ekf.models import MEASUREMENT_MODELS
 from slam_env.geometry import odometry_from_poses, velocity_from_poses, wrap_angle
 from slam_env.wrappers import ENTROPY_FLOOR, landmark_prior_variance
@@ -43,24 +33,19 @@ DEFAULT_PRIMITIVES: tuple[tuple[float, float], ...] = (
 
 
 @dataclass(frozen=True)
-class InfoGainParams:
-    """Parameters of :class:`InfoGainAgent` (units in the comments)."""
+class InfoGainParams(HeuristicParams):
+    """Parameters of :class:`InfoGainAgent` (units in the comments), beyond those of
+    :class:`~agents.heuristic.HeuristicParams` (the maps, the frontier window, the
+    guided candidate's path following, backing off). ``range_margin`` and
+    ``fov_margin`` also narrow the sensor for the observations it predicts."""
 
     primitives: tuple[tuple[float, float], ...] = DEFAULT_PRIMITIVES  # (speed, turn) fractions
     horizon: int = 6  # env steps a primitive is held in the prediction
     observe_at: tuple[int, ...] = (3, 6)  # steps of the horizon at which observations are predicted
     replan_interval: int = 2  # env steps between decisions (the chosen primitive is held)
-    planning_resolution: float = 0.25  # m, planning grid cell
-    coverage_resolution: float = 0.5  # m, coverage grid cell
     safety_margin: float = 0.15  # m, inflation of the known map beyond the robot radius
-    soft_clearance: float = 0.8  # m, the frontier distance field keeps this far from obstacles
-    proximity_cost: float = 3.0  # extra cost factor of the distance field near obstacles
-    range_margin: float = 0.4  # m, observations and sweeps use max_range − this
-    fov_margin: float = math.radians(4.0)  # rad, and the FOV narrowed by this on each side
     discovery_nats: float | None = None  # nats per landmark discovered; None: from the prior
     frontier_weight: float = 4.0  # nats per m of progress toward the nearest frontier
-    gain_radius: float = 1.5  # m, half-side of the window a frontier cell's gain counts
-    min_gain: float = 1.0  # m², unswept area around a cell that makes it a frontier
     field_interval: int = 8  # steps between recomputations of the frontier distance field
     heading_lookahead: float = 0.5  # m, facing the frontier counts as this much nearer
     give_up_radius: float = 2.5  # m, unswept cells this near the robot for too long ...
@@ -69,12 +54,9 @@ class InfoGainParams:
     keep_bonus: float = 0.3  # nats for keeping the previous primitive (less dithering)
     reversal_penalty: float = 2.0  # nats for reversing the previous turn direction on the spot
     guide_length: float = 4.0  # m of frontier-field descent the guided candidate follows
-    lookahead: float = 0.6  # m, pure-pursuit look-ahead of the guided candidate
     escape_lookahead: float = 0.3  # m, look-ahead when hemmed in (tight path following)
     turn_limit: float = 0.6  # fraction of the max turn rate the guided candidate uses
-    stuck_steps: int = 4  # steps of commanded motion without progress before backing off
     recovery_steps: int = 5  # steps of backing off when stuck
-    bump_radius: float = 0.5  # m, disc blocked ahead of the robot when it gets stuck
 
     def __post_init__(self) -> None:
         prims = self.primitives
@@ -82,59 +64,25 @@ class InfoGainParams:
             raise ValueError("InfoGainParams.primitives must be non-empty (speed, turn) pairs")
         if any(not (math.isfinite(a) and -1.0 <= a <= 1.0) for p in prims for a in p):
             raise ValueError("InfoGainParams.primitives must hold fractions in [-1, 1]")
-        for name in (
-            "horizon",
-            "replan_interval",
-            "field_interval",
-            "stuck_steps",
-            "give_up_steps",
-        ):
-            value = getattr(self, name)
-            if not isinstance(value, int) or value < 1:
-                raise ValueError(f"InfoGainParams.{name} must be an int >= 1, got {value!r}")
-        if not isinstance(self.recovery_steps, int) or self.recovery_steps < 1:
-            raise ValueError("InfoGainParams.recovery_steps must be an int >= 1")
+        super().__post_init__()
+        self._require_counts("horizon", "field_interval", "give_up_steps")
         if not self.observe_at or any(
             not isinstance(k, int) or not 1 <= k <= self.horizon for k in self.observe_at
         ):
             raise ValueError(f"InfoGainParams.observe_at must be steps in [1, {self.horizon}]")
-        for name in (
-            "planning_resolution",
-            "coverage_resolution",
-            "gain_radius",
-            "bump_radius",
-            "give_up_radius",
-            "guide_length",
-            "lookahead",
-            "escape_lookahead",
-            "turn_limit",
-        ):
-            value = getattr(self, name)
-            if not (math.isfinite(value) and value > 0):
-                raise ValueError(f"InfoGainParams.{name} must be finite and > 0, got {value!r}")
-        for name in (
-            "safety_margin",
-            "soft_clearance",
-            "proximity_cost",
-            "range_margin",
-            "fov_margin",
+        self._require_positive("give_up_radius", "guide_length", "escape_lookahead")
+        self._require_non_negative(
             "frontier_weight",
-            "min_gain",
             "collision_penalty",
             "keep_bonus",
             "reversal_penalty",
             "heading_lookahead",
-        ):
-            value = getattr(self, name)
-            if not (math.isfinite(value) and value >= 0):
-                raise ValueError(f"InfoGainParams.{name} must be finite and >= 0, got {value!r}")
-        if self.discovery_nats is not None and not (
-            math.isfinite(self.discovery_nats) and self.discovery_nats >= 0
-        ):
-            raise ValueError("InfoGainParams.discovery_nats must be None or finite and >= 0")
+        )
+        if self.discovery_nats is not None:
+            self._require_non_negative("discovery_nats")
 
 
-class InfoGainAgent:
+class InfoGainAgent(HeuristicAgent):
     """Greedy expected-information-gain exploration (active SLAM, one-step lookahead).
 
     Every ``replan_interval`` steps the agent scores a set of candidate motions from
@@ -168,14 +116,9 @@ class InfoGainAgent:
     spot costs ``reversal_penalty`` (no dithering). When every moving candidate would
     collide (a narrow passage) the agent follows the field's descent path closely
     instead. Unswept cells that stay out of sight while the robot spends
-    ``give_up_steps`` next to them are abandoned, and something the robot runs into
-    that the map does not show (it commands motion and the estimate does not move) is
-    remembered as an obstacle and backed away from.
-
-    It reads only the belief (``env.unwrapped.filter``), the known map
-    (``raw_env.layout`` obstacles and walls) and the env's configuration; never the
-    true pose or landmark positions. ``seed`` seeds the agent's generator (used to
-    pick a direction when it backs off something it ran into).
+    ``give_up_steps`` next to them are abandoned. What it reads, how it notices
+    episodes and how it backs off something it ran into: see
+    :class:`~agents.heuristic.HeuristicAgent`.
 
     Args:
         env: a ``slam_env/ActiveSLAM-v0`` env (continuous actions).
@@ -183,81 +126,30 @@ class InfoGainAgent:
         **params: overrides of :class:`InfoGainParams`.
     """
 
+    params_class = InfoGainParams
+    params: InfoGainParams
+
     def __init__(self, env: gym.Env, seed: int | None = None, **params: Any) -> None:
-        self._base = belief_env(env)
-        self.params: InfoGainParams = make_params(InfoGainParams, params)
-        self.rng = np.random.default_rng(seed)
+        super().__init__(env, seed, **params)
         cfg = self._base.config
-        self._dt = float(cfg.dt)
-        self._max_speed = float(cfg.robot.max_speed)
-        self._max_turn = float(cfg.robot.max_turn_rate)
         self._range = max(float(cfg.sensor.max_range) - self.params.range_margin, 0.0)
         fov = float(cfg.sensor.fov)
         self._half_fov = math.pi if fov >= 2.0 * math.pi else 0.5 * fov - self.params.fov_margin
         self._n_total = int(self._base.raw_env.n_landmarks)
-        self._control = ControllerParams(
-            max_speed=self._max_speed,
-            max_turn_rate=self._max_turn,
-            dt=self._dt,
-            turn_limit=self.params.turn_limit,
-        )
         self._prior_var = landmark_prior_variance(*self._base.raw_env.arena_size)
-        self._watch = EpisodeWatch()
-        self._memory: ExplorationMemory | None = None
 
-    # ------------------------------------------------------------------ interface
-    def predict(
-        self,
-        observation: Any,
-        state: Any = None,
-        episode_start: Any = None,
-        deterministic: bool = False,
-    ) -> tuple[np.ndarray, Any]:
-        """The next action, float32 (2,) in [−1, 1]; ``state`` is passed through."""
-        base = self._base
-        if is_truthy(episode_start) or self._memory is None or self._watch.is_new(base):
-            self.reset()
-        action = np.clip(self._act(), -1.0, 1.0).astype(np.float32)
-        self._last_speed = float(action[0])
-        self._last_turn = float(action[1]) if abs(action[0]) < 0.5 else 0.0
-        self._watch.mark(base)
-        return action, state
-
-    def reset(self) -> None:
-        """Forget the episode: rebuild the maps from the current layout."""
-        base = self._base
-        p = self.params
-        self._memory = ExplorationMemory(
-            base.raw_env.layout,
-            base.config,
-            planning_resolution=p.planning_resolution,
-            coverage_resolution=p.coverage_resolution,
-            safety_margin=p.safety_margin,
-            soft_clearance=p.soft_clearance,
-            proximity_cost=p.proximity_cost,
-            range_margin=p.range_margin,
-            fov_margin=p.fov_margin,
-        )
-        cg = self._memory.coverage.grid
-        self._gain_cells = max(1, round(p.gain_radius / cg.resolution))
+    def _new_episode(self) -> None:
         self._field: np.ndarray | None = None
         self._since_field = 0
-        self._n_posts = -1
         self._choice = -1
         self._follower: PathFollower | None = None
         self._held = 0
-        self._recovery = 0
-        self._recovery_action = np.zeros(2, dtype=np.float32)
-        self._last_speed = 0.0
-        self._last_turn = 0.0
-        self._stuck = StuckDetector(p.stuck_steps, step_length=self._max_speed * self._dt)
         self._last_scores: np.ndarray | None = None
-        self._watch.forget()
 
-    @property
-    def memory(self) -> ExplorationMemory | None:
-        """The episode's maps (planning grid, coverage)."""
-        return self._memory
+    def _drop_plan(self) -> None:
+        self._field = None
+        self._choice = -1
+        self._follower = None
 
     @property
     def last_scores(self) -> np.ndarray | None:
@@ -269,23 +161,15 @@ class InfoGainAgent:
     # ------------------------------------------------------------------ decision
     def _act(self) -> np.ndarray:
         p = self.params
-        mem = self._memory
-        assert mem is not None
-        f = self._base.filter
-        pose = f.pose
-        mem.coverage.sweep(pose)
-        if mem.coverage.expose(pose, p.give_up_radius, p.give_up_steps):
+        pose = self._base.filter.pose
+        self._update_maps(pose)
+        if self._memory.coverage.expose(pose, p.give_up_radius, p.give_up_steps):
             self._field = None
-        if f.n_landmarks != self._n_posts:
-            mem.set_posts(f.landmark_means())
-            self._n_posts = f.n_landmarks
         self._since_field += 1
 
-        if self._recovery > 0:
-            self._recovery -= 1
-            return self._recovery_action
-        if self._stuck.update(pose, self._last_speed):
-            return self._start_recovery(pose)
+        backing_off = self._backing_off(pose)
+        if backing_off is not None:
+            return backing_off
 
         if self._choice >= 0 and self._held < p.replan_interval:
             self._held += 1
@@ -298,9 +182,10 @@ class InfoGainAgent:
         total = scores.sum(axis=1)
         if 0 <= self._choice < len(total):
             total[self._choice] += p.keep_bonus
-        # No dithering: turning back the way the robot just turned costs extra.
-        last_turn = self._last_turn
-        if last_turn != 0.0:
+        # No dithering: turning back the way the robot just turned (on the spot, or
+        # nearly) costs extra.
+        last_speed, last_turn = self._last_command
+        if last_turn != 0.0 and abs(last_speed) < 0.5:
             turns = np.array([float(a[1]) for a in actions])
             total[turns * last_turn < 0.0] -= p.reversal_penalty
         self._last_scores = scores
@@ -322,30 +207,15 @@ class InfoGainAgent:
             return self._follower.action(pose)
         return np.array(self.params.primitives[self._choice], dtype=np.float32)
 
-    def _start_recovery(self, pose: np.ndarray) -> np.ndarray:
-        """Ran into something unmapped (where the robot thinks it is): remember it
-        and back off, turning to a random side."""
-        p = self.params
-        mem = self._memory
-        reach = self._base.config.robot.radius + 0.5 * p.bump_radius
-        ahead = pose[:2] + reach * np.array([math.cos(pose[2]), math.sin(pose[2])])
-        mem.add_bump(ahead, p.bump_radius + mem.inflation)
-        self._field = None
-        self._choice = -1
-        self._follower = None
-        self._recovery = p.recovery_steps - 1
-        turn = 0.6 if self.rng.random() < 0.5 else -0.6
-        self._recovery_action = np.array([-0.5, turn], dtype=np.float32)
-        return self._recovery_action
-
     # ------------------------------------------------------------------ prediction
     def _arcs(self, pose: np.ndarray, commands: np.ndarray, steps: int) -> np.ndarray:
         """(k, steps + 1, 3) the poses of a unicycle at ``pose`` holding each of the
         (speed, turn) fraction ``commands`` (k, 2) for ``steps`` env steps (exact
         arcs), starting with ``pose``."""
-        v = commands[:, 0] * self._max_speed  # m/s
-        w = commands[:, 1] * self._max_turn  # rad/s
-        t = np.arange(steps + 1) * self._dt  # s
+        c = self._control
+        v = commands[:, 0] * c.max_speed  # m/s
+        w = commands[:, 1] * c.max_turn_rate  # rad/s
+        t = np.arange(steps + 1) * c.dt  # s
         th = pose[2] + w[:, None] * t[None, :]
         straight = np.abs(w) < 1e-9
         w_safe = np.where(straight, 1.0, w)[:, None]
@@ -389,24 +259,12 @@ class InfoGainAgent:
         field = self._field
         if field is None:
             return None
+        start = self._field_cell(field, pose)
+        if start is None:
+            return None
         grid = self._memory.grid
-        i, j = grid.cell_of(pose[0], pose[1])
-        if not math.isfinite(field[i, j]):
-            near = nearest_passable(np.isfinite(field), (i, j), max_radius=3)
-            if near is None:
-                return None
-            i, j = near
         points = [pose[:2].copy()]
-        for _ in range(math.ceil(self.params.guide_length / grid.resolution)):
-            if field[i, j] <= 0.0:
-                break
-            i0, j0 = max(i - 1, 0), max(j - 1, 0)
-            window = field[i0 : i + 2, j0 : j + 2]
-            k = int(np.argmin(window))
-            a, b = divmod(k, window.shape[1])
-            if not window[a, b] < field[i, j]:
-                break
-            i, j = a + i0, b + j0
+        for i, j in _downhill(field, start, math.ceil(self.params.guide_length / grid.resolution)):
             points.append(np.array([grid.xs[j], grid.ys[i]]))
         if len(points) < 2:
             return None
@@ -559,28 +417,25 @@ class InfoGainAgent:
         so turning toward the frontier is progress too (and turning away is not)."""
         if field is None:
             return math.inf
+        start = self._field_cell(field, pose)
+        if start is None:
+            return math.inf
         grid = self._memory.grid
-        start = grid.cell_of(pose[0], pose[1])
-        if not math.isfinite(field[start]):
-            near = nearest_passable(np.isfinite(field), start, max_radius=3)
-            if near is None:
-                return math.inf
-            start = near
-        i, j = start
-        value = float(field[i, j]) + math.dist(grid.center(i, j), pose[:2])
-        for _ in range(4):  # steepest descent for up to 4 cells: the downhill direction
-            i0, j0 = max(i - 1, 0), max(j - 1, 0)
-            window = field[i0 : i + 2, j0 : j + 2]
-            k = int(np.argmin(window))
-            a, b = divmod(k, window.shape[1])
-            if not window[a, b] < field[i, j]:
-                break
-            i, j = a + i0, b + j0
-        if (i, j) == start:
+        value = float(field[start]) + math.dist(grid.center(*start), pose[:2])
+        descent = list(_downhill(field, start, 4))  # up to 4 cells: the downhill direction
+        if not descent:
             return value
-        x, y = grid.center(i, j)
+        x, y = grid.center(*descent[-1])
         err = math.atan2(y - pose[1], x - pose[0]) - pose[2]
         return value - self.params.heading_lookahead * math.cos(err)
+
+    def _field_cell(self, field: np.ndarray, point: np.ndarray) -> tuple[int, int] | None:
+        """The planning cell of ``point``, or the nearest one (within 3 cells) that
+        ``field`` reaches; None if there is none."""
+        cell = self._memory.grid.cell_of(point[0], point[1])
+        if math.isfinite(field[cell]):
+            return cell
+        return nearest_passable(np.isfinite(field), cell, max_radius=3)
 
     def _field_at(self, field: np.ndarray | None, point: np.ndarray, search: int = 2) -> float:
         """The field at ``point``, or at the nearest reached cell around it."""
@@ -594,3 +449,17 @@ class InfoGainAgent:
         window = field[max(i - search, 0) : i + search + 1, max(j - search, 0) : j + search + 1]
         finite = window[np.isfinite(window)]
         return float(finite.min()) + search * grid.resolution if finite.size else math.inf
+
+
+def _downhill(field: np.ndarray, cell: tuple[int, int], steps: int) -> Iterator[tuple[int, int]]:
+    """The cells of steepest descent of ``field`` from ``cell`` (not included): at most
+    ``steps``, ending early where no neighbour is lower (a frontier: 0)."""
+    i, j = cell
+    for _ in range(steps):
+        i0, j0 = max(i - 1, 0), max(j - 1, 0)
+        window = field[i0 : i + 2, j0 : j + 2]
+        a, b = divmod(int(np.argmin(window)), window.shape[1])
+        if not window[a, b] < field[i, j]:
+            return
+        i, j = a + i0, b + j0
+        yield i, j

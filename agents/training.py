@@ -50,10 +50,10 @@ class PPOParams:
     n_steps: int = 1024  # rollout length per env
     batch_size: int = 256
     n_epochs: int = 5
-    gamma: float = 0.99
+    gamma: float = 0.995
     gae_lambda: float = 0.95
     clip_range: float = 0.2
-    ent_coef: float = 0.0
+    ent_coef: float = 0.005
     vf_coef: float = 0.5
     max_grad_norm: float = 0.5
     target_kl: float | None = None
@@ -66,7 +66,7 @@ class PPOParams:
 class TrainConfig:
     """Everything ``train`` needs. Frequencies count env steps (all envs together)."""
 
-    total_timesteps: int = 600_000
+    total_timesteps: int = 800_000
     n_envs: int = 2  # SubprocVecEnv workers; 1 runs in-process (DummyVecEnv)
     seed: int = 0
     env_options: dict[str, Any] = field(default_factory=dict)  # ActiveSLAMEnv options

@@ -143,11 +143,14 @@ class LandmarkSensor:
 
         A numpy call costs about a microsecond whatever its size, so for tens of
         landmarks the number of calls matters more than the arithmetic: r and φ are
-        computed vectorised, then the two tests run on Python floats.
+        computed vectorised, then the two tests run on Python floats. d, r and φ stay
+        numpy operations because the seeded stream depends on their last bits (the
+        matmul may fuse multiply-adds, and ``math.hypot`` rounds unlike ``np.hypot``).
         """
         c, s = math.cos(theta), math.sin(theta)
-        # Row-wise R(θ)ᵀ(m − t) = m·R(θ) − t·R(θ): one small matmul, then the offset
-        # t·R(θ), subtracted column by column (a scalar operand is the cheapest).
+        # Row-wise R(θ)ᵀ(m − t) = m·R(θ) − t·R(θ): one small matmul (R(θ) as
+        # geometry.rotation builds it), then the offset t·R(θ), subtracted column by
+        # column (a scalar operand is the cheapest).
         d = np.dot(positions, np.array(((c, -s), (s, c))))
         dx = d[:, 0] - (c * x + s * y)
         dy = d[:, 1] - (c * y - s * x)

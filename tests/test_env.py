@@ -253,6 +253,7 @@ def test_misspelt_option_is_an_error():
         ({"render_mode": "ascii"}, "render_mode"),
     ],
 )
+@pytest.mark.filterwarnings("ignore:.*render_mode:UserWarning")  # gym.make's own notice
 def test_invalid_configs_raise(kwargs, match):
     with pytest.raises((ValueError, TypeError), match=match):
         gym.make(ENV_ID, **kwargs)
@@ -307,3 +308,22 @@ def test_proximity_scan_is_optional_and_normalised():
         to_x = (0.0 - 3.0) / c if c < 0 else (10.0 - 3.0) / c
         to_y = (0.0 - 5.0) / s if s < 0 else (10.0 - 5.0) / s
         assert reading == pytest.approx(min(to_x, to_y, 4.0) / 4.0, abs=1e-6)
+
+
+def test_record_video_of_the_env(tmp_path):
+    from gymnasium.wrappers import RecordVideo
+
+    env = RecordVideo(
+        gym.make(ENV_ID, render_mode="rgb_array", max_episode_steps=12),
+        str(tmp_path / "videos"),
+        episode_trigger=lambda episode: True,
+        disable_logger=True,
+    )
+    env.reset(seed=0)
+    done = False
+    while not done:
+        _, _, terminated, truncated, _ = env.step(env.action_space.sample())
+        done = terminated or truncated
+    env.close()
+    videos = list((tmp_path / "videos").glob("*.mp4"))
+    assert len(videos) == 1 and videos[0].stat().st_size > 1000

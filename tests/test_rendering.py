@@ -405,10 +405,10 @@ def test_record_video_frames(layout, tmp_path):
         def render(self):
             return self._r.render(make_frame((self._x, 2.0, 0.0)))
 
-    env = RecordVideo(Tiny(), str(tmp_path), episode_trigger=lambda e: True)
+    env = RecordVideo(Tiny(), str(tmp_path / "videos"), episode_trigger=lambda e: True)
     env.reset(seed=0)
     done = False
     while not done:
         _, _, done, _, _ = env.step(env.action_space.sample())
     env.close()
-    assert list(tmp_path.glob("*.mp4"))
+    assert list((tmp_path / "videos").glob("*.mp4"))

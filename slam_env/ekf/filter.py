@@ -37,6 +37,7 @@ from typing import Any
 import numpy as np
 
 from slam_env.ekf.models import MEASUREMENT_MODELS, MOTION_MODELS
+from slam_env.geometry import wrap_angle
 
 __all__ = [
     "CORRECTED",
@@ -370,7 +371,7 @@ class EKFSLAM:
     @staticmethod
     def _check_prior(pose: Any, cov: Any) -> tuple[np.ndarray, np.ndarray]:
         pose = _float_array(pose, "initial_pose", (3,))
-        pose[2] = (pose[2] + math.pi) % _TWO_PI - math.pi
+        pose[2] = wrap_angle(float(pose[2]))
         cov = np.zeros((3, 3)) if cov is None else cov
         return pose, _covariance(cov, "initial_pose_cov", 3, definite=False)
 
@@ -803,7 +804,7 @@ class EKFSLAM:
             )
             np.dot(F, Ct, out=U[r : r + 3])
             x[:d] += U[r + 2]
-            x[2] = (x[2] + math.pi) % _TWO_PI - math.pi
+            x[2] = wrap_angle(float(x[2]))
             status[i] = _CORRECTED
             r += 2
         if r:
@@ -892,7 +893,7 @@ class EKFSLAM:
         W = Li @ (eye - S @ G) @ Lc
         V = np.linalg.cholesky(eye - W.T @ W)
         x[:d] += np.dot(np.dot(G, np.ravel(nus)), Ct)  # x += K ν, K = C G
-        x[2] = (x[2] + math.pi) % _TWO_PI - math.pi
+        x[2] = wrap_angle(float(x[2]))
         self._apply_joseph(np.dot(np.dot(V.T, Li), Ct))
         status[obs] = _CORRECTED
 

@@ -40,7 +40,7 @@ _TWO_PI = 2.0 * math.pi
 
 
 def _wrap(a: float) -> float:
-    return (a + math.pi) % _TWO_PI - math.pi
+    return wrap_angle(a)  # half-open [−π, π) even at round-off
 
 
 # --------------------------------------------------------------------------- noise

@@ -8,36 +8,21 @@ import gymnasium as gym
 import numpy as np
 import pytest
 
-from agents.base import Agent, RandomAgent
+from agents.base import Agent
 from agents.frontier import EXPLORE, LOCALISE, FrontierAgent, FrontierParams
 from tests.agents.exploration_runs import (
     ENV_ID,
-    N_LANDMARKS,
-    SEEDS,
-    assert_valid_actions,
-    run_episode,
+    assert_beats_random_on_default_episodes,
+    assert_rejects_unsupported_envs,
+    assert_same_seed_same_actions,
+    drive,
 )
 
 
 def test_full_default_episodes_on_fixed_seeds():
-    """On the default env (500 steps, a new random world per seed) the agent acts
-    validly throughout, maps at least 90% of the landmarks on every seed, and beats
-    the random agent on mean landmarks mapped and mean final belief entropy. (One test,
-    so that parallel workers do not repeat the episodes.)"""
-    ours = [run_episode(FrontierAgent, seed) for seed in SEEDS]
-    baseline = [run_episode(RandomAgent, seed) for seed in SEEDS]
-    space = gym.make(ENV_ID).action_space
-    for episode in ours:
-        assert episode.steps == 500 and episode.truncated
-        assert_valid_actions(episode, space)
-    known = {e.seed: e.landmarks_known for e in ours}
-    assert all(k >= math.ceil(0.9 * N_LANDMARKS) for k in known.values()), known
-    ours_known = np.mean([e.landmarks_known for e in ours])
-    random_known = np.mean([e.landmarks_known for e in baseline])
-    ours_entropy = np.mean([e.entropy for e in ours])
-    random_entropy = np.mean([e.entropy for e in baseline])
-    assert ours_known > random_known, (ours_known, random_known)
-    assert ours_entropy < random_entropy, (ours_entropy, random_entropy)
+    """Valid actions, ≥ 90% of the landmarks and better than random on the default env.
+    (One test, so that parallel workers do not repeat the episodes.)"""
+    assert_beats_random_on_default_episodes(FrontierAgent)
 
 
 def test_is_an_sb3_style_predictor():
@@ -52,27 +37,14 @@ def test_is_an_sb3_style_predictor():
 
 
 def test_same_seed_same_actions():
-    def actions(seed: int) -> np.ndarray:
-        env = gym.make(ENV_ID)
-        agent = FrontierAgent(env, seed=seed)
-        obs, _ = env.reset(seed=5)
-        out = []
-        for k in range(60):
-            action, _ = agent.predict(obs, episode_start=k == 0)
-            out.append(action)
-            obs, *_ = env.step(action)
-        return np.array(out)
-
-    np.testing.assert_array_equal(actions(7), actions(7))
+    assert_same_seed_same_actions(FrontierAgent, 7, env_seed=5, steps=60)
 
 
 def test_detects_a_new_random_world_without_episode_start():
     env = gym.make(ENV_ID)
     agent = FrontierAgent(env, seed=0)
     obs, _ = env.reset(seed=1)
-    for k in range(40):
-        action, _ = agent.predict(obs, episode_start=k == 0)
-        obs, *_ = env.step(action)
+    drive(agent, env, obs, 40)
     swept_before = agent.memory.coverage.fraction_swept()
     obs, _ = env.reset(seed=2)
     agent.predict(obs)  # no episode_start: the layout object changed
@@ -84,9 +56,7 @@ def test_detects_a_reset_of_a_fixed_world_without_episode_start():
     env = gym.make(ENV_ID, preset="open")
     agent = FrontierAgent(env, seed=0)
     obs, _ = env.reset(seed=1)
-    for k in range(40):
-        action, _ = agent.predict(obs, episode_start=k == 0)
-        obs, *_ = env.step(action)
+    drive(agent, env, obs, 40)
     old = agent.memory
     obs, _ = env.reset(seed=1)  # same layout object: the belief is back at the start
     agent.predict(obs)
@@ -122,21 +92,13 @@ def test_runs_in_a_world_with_inner_walls():
     env = gym.make(ENV_ID, preset="rooms", max_episode_steps=200)
     agent = FrontierAgent(env, seed=0)
     obs, info = env.reset(seed=0)
-    first = info["landmarks_known"]
-    done, k = False, 0
-    while not done:
-        action, _ = agent.predict(obs, episode_start=k == 0)
-        assert env.action_space.contains(action)
-        obs, _, terminated, truncated, info = env.step(action)
-        done, k = terminated or truncated, k + 1
-    assert info["landmarks_known"] > first
+    run = drive(agent, env, obs)
+    assert all(env.action_space.contains(action) for action in run.actions)
+    assert run.info["landmarks_known"] > info["landmarks_known"]
 
 
 def test_rejects_what_it_cannot_drive():
-    with pytest.raises(TypeError, match="continuous"):
-        FrontierAgent(gym.make(ENV_ID, action_type="discrete"))
-    with pytest.raises(TypeError, match="ActiveSLAM"):
-        FrontierAgent(gym.make("slam_env/Landmarks-v0"))
+    assert_rejects_unsupported_envs(FrontierAgent)
 
 
 def test_rejects_bad_parameters():

@@ -8,38 +8,23 @@ import gymnasium as gym
 import numpy as np
 import pytest
 
-from agents.base import Agent, RandomAgent
+from agents.base import Agent
 from agents.infogain import DEFAULT_PRIMITIVES, InfoGainAgent, InfoGainParams
 from tests.agents.exploration_runs import (
     ENV_ID,
-    N_LANDMARKS,
-    SEEDS,
-    assert_valid_actions,
-    run_episode,
+    assert_beats_random_on_default_episodes,
+    assert_rejects_unsupported_envs,
+    assert_same_seed_same_actions,
+    drive,
 )
 
 INFO, DISCOVERY, FRONTIER, COLLISION = range(4)
 
 
 def test_full_default_episodes_on_fixed_seeds():
-    """On the default env (500 steps, a new random world per seed) the agent acts
-    validly throughout, maps at least 90% of the landmarks on every seed, and beats
-    the random agent on mean landmarks mapped and mean final belief entropy. (One test,
-    so that parallel workers do not repeat the episodes.)"""
-    ours = [run_episode(InfoGainAgent, seed) for seed in SEEDS]
-    baseline = [run_episode(RandomAgent, seed) for seed in SEEDS]
-    space = gym.make(ENV_ID).action_space
-    for episode in ours:
-        assert episode.steps == 500 and episode.truncated
-        assert_valid_actions(episode, space)
-    known = {e.seed: e.landmarks_known for e in ours}
-    assert all(k >= math.ceil(0.9 * N_LANDMARKS) for k in known.values()), known
-    ours_known = np.mean([e.landmarks_known for e in ours])
-    random_known = np.mean([e.landmarks_known for e in baseline])
-    ours_entropy = np.mean([e.entropy for e in ours])
-    random_entropy = np.mean([e.entropy for e in baseline])
-    assert ours_known > random_known, (ours_known, random_known)
-    assert ours_entropy < random_entropy, (ours_entropy, random_entropy)
+    """Valid actions, ≥ 90% of the landmarks and better than random on the default env.
+    (One test, so that parallel workers do not repeat the episodes.)"""
+    assert_beats_random_on_default_episodes(InfoGainAgent)
 
 
 def _start(layout: dict, **params) -> tuple[gym.Env, InfoGainAgent, np.ndarray]:
@@ -101,18 +86,7 @@ def test_unseen_area_and_frontier_progress_are_rewarded():
 
 
 def test_same_seed_same_actions():
-    def actions(seed: int) -> np.ndarray:
-        env = gym.make(ENV_ID)
-        agent = InfoGainAgent(env, seed=seed)
-        obs, _ = env.reset(seed=4)
-        out = []
-        for k in range(40):
-            action, _ = agent.predict(obs, episode_start=k == 0)
-            out.append(action)
-            obs, *_ = env.step(action)
-        return np.array(out)
-
-    np.testing.assert_array_equal(actions(3), actions(3))
+    assert_same_seed_same_actions(InfoGainAgent, 3, env_seed=4, steps=40)
 
 
 def test_is_an_sb3_style_predictor_that_notices_new_episodes():
@@ -137,21 +111,13 @@ def test_runs_in_a_small_world_with_inner_walls():
         env = gym.make(ENV_ID, max_episode_steps=150, **options)
         agent = InfoGainAgent(env, seed=0)
         obs, info = env.reset(seed=0)
-        first = info["landmarks_known"]
-        done, k = False, 0
-        while not done:
-            action, _ = agent.predict(obs, episode_start=k == 0)
-            assert env.action_space.contains(action)
-            obs, _, terminated, truncated, info = env.step(action)
-            done, k = terminated or truncated, k + 1
-        assert info["landmarks_known"] > first, options
+        run = drive(agent, env, obs)
+        assert all(env.action_space.contains(action) for action in run.actions)
+        assert run.info["landmarks_known"] > info["landmarks_known"], options
 
 
 def test_rejects_what_it_cannot_drive_and_bad_parameters():
-    with pytest.raises(TypeError, match="continuous"):
-        InfoGainAgent(gym.make(ENV_ID, action_type="discrete"))
-    with pytest.raises(TypeError, match="ActiveSLAM"):
-        InfoGainAgent(gym.make("slam_env/Landmarks-v0"))
+    assert_rejects_unsupported_envs(InfoGainAgent)
     env = gym.make(ENV_ID)
     with pytest.raises(TypeError, match="horizn"):
         InfoGainAgent(env, horizn=3)
