@@ -42,6 +42,7 @@ _COLORS = {
 
 def _new_figure(figsize: tuple[float, float]) -> Figure:
     fig = Figure(figsize=figsize, layout="constrained")
+    fig.get_layout_engine().set(h_pad=0.1)  # room above the title
     FigureCanvasAgg(fig)
     return fig
 
@@ -264,8 +265,11 @@ def plot_episode(
     if belief is not None:
         draw_belief(ax, belief, layout)
     if title:
-        ax.set_title(title)
-    ax.legend(loc="upper right", fontsize=6, framealpha=0.8)
+        ax.set_title(title, fontsize=10)
+    # Below the map, so that it never hides landmarks in a corner.
+    ax.figure.legend(
+        *ax.get_legend_handles_labels(), loc="outside lower center", ncol=3, fontsize=7
+    )
     _save(fig, path, dpi)
     return fig
 
