@@ -124,6 +124,8 @@ class LandmarksEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         if cfg.layout is not None or cfg.world.preset != "random":
             self._fixed_layout = layout_for(cfg, rng=None)
             ids = self._fixed_layout.landmark_ids
+            if not ids:
+                raise ValueError("the world has no landmarks: slam_env needs at least one")
             self.n_landmarks = len(ids)
             self.n_landmark_slots = max(ids) + 1
             self.arena_size = (self._fixed_layout.width, self._fixed_layout.height)

@@ -4,7 +4,25 @@ from __future__ import annotations
 
 import os
 
+import pytest
+
+from slam_env.layouts import Layout
+
 # Rendering tests run headless.
 os.environ.setdefault("SDL_VIDEODRIVER", "dummy")
 os.environ.setdefault("SDL_AUDIODRIVER", "dummy")
 os.environ.setdefault("MPLBACKEND", "Agg")
+
+
+@pytest.fixture
+def layout() -> Layout:
+    """A small hand-made world: 10 × 8 m, three landmarks, a box and an inner wall."""
+    return Layout(
+        width=10,
+        height=8,
+        landmark_ids=(0, 1, 2),
+        landmark_positions=((2, 2), (5, 6), (8, 3)),
+        obstacles=(((4, 1), (5, 1), (5, 2), (4, 2)),),
+        walls=((6, 0, 6, 4),),
+        start_pose=(1, 1, 0),
+    )

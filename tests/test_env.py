@@ -14,7 +14,6 @@ import pytest
 from gymnasium.utils.env_checker import check_env as gym_check_env
 from stable_baselines3.common.env_checker import check_env as sb3_check_env
 
-import slam_env
 from tests.streams import digest, rollout_digest
 
 ENV_ID = "slam_env/Landmarks-v0"
@@ -259,14 +258,9 @@ def test_invalid_configs_raise(kwargs, match):
         gym.make(ENV_ID, **kwargs)
 
 
-def test_step_before_reset_and_after_close():
-    env = slam_env.env.LandmarksEnv()
-    with pytest.raises(gym.error.ResetNeeded):
-        env.step(np.zeros(2))
-    env.reset(seed=0)
-    env.close()
-    with pytest.raises(RuntimeError, match="closed"):
-        env.step(np.zeros(2))
+def test_a_world_without_landmarks_is_refused():
+    with pytest.raises(ValueError, match="no landmarks"):
+        gym.make(ENV_ID, layout={"width": 5.0, "height": 5.0, "landmarks": [], "start": [1, 1, 0]})
 
 
 @pytest.mark.parametrize("kwargs", [{}, *NON_DEFAULT_CONFIGS])

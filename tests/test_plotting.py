@@ -10,7 +10,6 @@ import pytest
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
-from slam_env.layouts import Layout
 from slam_env.overlay import BeliefOverlay
 from slam_env.plotting import (
     mean_and_band,
@@ -18,19 +17,6 @@ from slam_env.plotting import (
     plot_metrics_over_time,
     plot_trajectories_grid,
 )
-
-
-@pytest.fixture
-def layout() -> Layout:
-    return Layout(
-        width=10,
-        height=8,
-        landmark_ids=(0, 1, 2),
-        landmark_positions=((2, 2), (5, 6), (8, 3)),
-        obstacles=(((4, 1), (5, 1), (5, 2), (4, 2)),),
-        walls=((6, 0, 6, 4),),
-        start_pose=(1, 1, 0),
-    )
 
 
 @pytest.fixture

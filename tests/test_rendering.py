@@ -22,19 +22,6 @@ FOV = 2.0 * math.pi / 3.0
 
 
 @pytest.fixture
-def layout() -> Layout:
-    return Layout(
-        width=10,
-        height=8,
-        landmark_ids=(0, 1, 2),
-        landmark_positions=((2, 2), (5, 6), (8, 3)),
-        obstacles=(((4, 1), (5, 1), (5, 2), (4, 2)),),
-        walls=((6, 0, 6, 4),),
-        start_pose=(1, 1, 0),
-    )
-
-
-@pytest.fixture
 def renderer(layout):
     r = Renderer(layout, robot_radius=0.25, max_range=5.0, fov=FOV, render_mode="rgb_array")
     yield r

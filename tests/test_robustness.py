@@ -12,7 +12,8 @@ import numpy as np
 import pytest
 from gymnasium.vector import AutoresetMode
 
-import slam_env
+import slam_env.active_slam
+import slam_env.env
 from tests.streams import digest
 
 ENV_ID = "slam_env/ActiveSLAM-v0"
@@ -97,8 +98,11 @@ def test_sb3_dummy_and_subproc_vec_envs_agree():
     assert streams[0] == streams[1]
 
 
-def test_step_before_reset_and_after_close_on_the_wrapped_env():
-    env = slam_env.active_slam.ActiveSLAMEnv()
+@pytest.mark.parametrize(
+    "make", [slam_env.env.LandmarksEnv, slam_env.active_slam.ActiveSLAMEnv], ids=["raw", "active"]
+)
+def test_step_before_reset_and_after_close(make):
+    env = make()
     with pytest.raises(gym.error.ResetNeeded):
         env.step(np.zeros(2))
     env.reset(seed=0)
