@@ -300,6 +300,14 @@ def _write_yaml(cfg: TrainConfig, path: Path) -> None:
 
 
 # ---------------------------------------------------------------------- train
+def save_policy_file(model: Any, path: Path) -> None:
+    """Save ``model`` without Adam's moment estimates: they would triple the file and
+    only matter for resuming training (which then restarts the optimiser)."""
+    policy = model.policy
+    policy.optimizer = type(policy.optimizer)(policy.parameters(), **policy.optimizer.defaults)
+    model.save(path)
+
+
 def train(config: TrainConfig | Mapping[str, Any] | str | Path | None = None) -> Path:
     """Train PPO as ``config`` says (a :class:`TrainConfig`, a mapping, a YAML path,
     or ``None`` for the defaults) and return the path of the saved ``.zip``."""
@@ -373,7 +381,7 @@ def train(config: TrainConfig | Mapping[str, Any] | str | Path | None = None) ->
         except KeyboardInterrupt:
             interrupted = True  # keep what was learnt so far
         wall = time.perf_counter() - start
-        model.save(model_path)
+        save_policy_file(model, model_path)
         evals = [c for c in callbacks if hasattr(c, "best_mean_reward")]
         summary = {
             "model": str(model_path),

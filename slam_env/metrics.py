@@ -76,10 +76,12 @@ def map_rmse(estimates, truths) -> float:
 
 
 def log_det_psd(cov, floor: float = 0.0) -> float:
-    """log det of a symmetric PSD matrix, eigenvalues clamped below at ``floor``.
+    """log det(Σ + floor·I) of a symmetric PSD matrix Σ: every eigenvalue raised by
+    ``floor``, which keeps the result finite for a singular Σ.
 
-    Tries a Cholesky factorisation first (fast); falls back to eigenvalues when the
-    matrix is singular or slightly indefinite from round-off.
+    Tries a Cholesky factorisation first (fast); falls back to eigenvalues (clamped at
+    ``floor``, or the smallest positive double) when round-off leaves the matrix
+    slightly indefinite.
     """
     cov = np.array(cov, dtype=np.float64)  # a copy: the floor is added in place
     if cov.size == 0:

@@ -175,7 +175,7 @@ class EKFSLAMWrapper(gym.ObservationWrapper):
         """Entropy (nats) of the belief over the pose and all ``max_landmarks`` slots:
         an unseen landmark's slot carries an independent prior, uniform over the arena
         in its first two moments, so discovering a landmark lowers the entropy and the
-        dimension never changes. Eigenvalues are floored at ``ENTROPY_FLOOR``.
+        dimension never changes. It is computed for Σ + ``ENTROPY_FLOOR``·I.
         ``cov`` is the filter's covariance if already at hand (it is not modified)."""
         cov = self.filter.cov if cov is None else cov
         unseen = self._geometry.max_landmarks - (cov.shape[0] - 3) // 2
