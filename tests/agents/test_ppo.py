@@ -202,3 +202,34 @@ def test_demo_runs_a_policy_on_the_world_it_was_trained_on(trained, tmp_path):
     assert result.metrics["steps"] == 40  # the trained max_episode_steps
     saved = json.loads((tmp_path / "demo_metrics.json").read_text())
     assert saved["env_options"] == SMALL_WORLD
+
+
+def test_saved_policy_drops_the_optimiser_state_and_acts_the_same(tmp_path):
+    from stable_baselines3 import PPO
+
+    from agents.training import save_policy_file
+
+    env = make_env(SMALL_WORLD)
+    model = PPO("MlpPolicy", env, n_steps=64, batch_size=32, n_epochs=1, seed=0, device="cpu")
+    model.learn(64)  # Adam now holds moment estimates
+    full, slim = tmp_path / "full.zip", tmp_path / "slim.zip"
+    model.save(full)
+    save_policy_file(model, slim)
+    assert slim.stat().st_size < 0.6 * full.stat().st_size
+    obs, _ = env.reset(seed=0)
+    a = PPO.load(full, device="cpu").predict(obs, deterministic=True)[0]
+    b = PPO.load(slim, device="cpu").predict(obs, deterministic=True)[0]
+    np.testing.assert_array_equal(a, b)
+    env.close()
+
+
+def test_the_shipped_policy_is_small_and_fits_the_default_env():
+    from agents.registry import SHIPPED_POLICY
+
+    assert SHIPPED_POLICY.stat().st_size < 400_000
+    env = make_env({})
+    agent = make_agent("ppo", env)
+    obs, _ = env.reset(seed=0)
+    action, _ = agent.predict(obs)
+    assert env.action_space.contains(action)
+    env.close()
