@@ -153,17 +153,17 @@ class EgocentricEncoding:
         g = self.geometry
         x, y, theta = mean[:3].tolist()
         c, s = math.cos(theta), math.sin(theta)
+        diag = cov.diagonal()
+        vx, vy, vth = diag[:3].tolist()
         feat = np.zeros(7 + 4 * g.max_landmarks, dtype=np.float64)
-        diag = np.maximum(cov.diagonal(), 0.0)
-        sx, sy, sth = np.sqrt(diag[:3]).tolist()
         feat[:7] = (
             x / g.width,
             y / g.height,
             c,
             s,
-            math.tanh(sx / POSITION_STD_SCALE),
-            math.tanh(sy / POSITION_STD_SCALE),
-            math.tanh(sth / HEADING_STD_SCALE),
+            math.tanh(math.sqrt(max(vx, 0.0)) / POSITION_STD_SCALE),
+            math.tanh(math.sqrt(max(vy, 0.0)) / POSITION_STD_SCALE),
+            math.tanh(math.sqrt(max(vth, 0.0)) / HEADING_STD_SCALE),
         )
         ids = np.asarray(state_to_id, dtype=np.int64)
         if ids.size:
@@ -173,11 +173,19 @@ class EgocentricEncoding:
             # The robot frame, R(θ)ᵀ (m − t), scaled by the sensor range.
             k = 1.0 / g.max_range
             rows[:, 1:3] = np.dot(rel, ((c * k, -s * k), (s * k, c * k)))
-            rows[:, 3] = np.tanh(np.sqrt(diag[3::2] + diag[4::2]) / POSITION_STD_SCALE)
+            trace = np.maximum(diag[3::2] + diag[4::2], 0.0)
+            rows[:, 3] = np.tanh(np.sqrt(trace) / POSITION_STD_SCALE)
             feat[7:].reshape(-1, 4)[ids] = rows
-        clipped = not np.isfinite(feat).all()
-        if clipped:  # a diverged filter: report it, never hand out a NaN
-            feat = np.nan_to_num(feat)
-        out = np.minimum(np.maximum(feat, self._low), self._high)
-        clipped = clipped or not np.array_equal(out, feat)
-        return out.astype(np.float32), clipped
+        # Only a diverged belief leaves the bounds (a NaN poisons the sum), so the full
+        # clip runs only then.
+        total = float(feat.sum())
+        inside = (
+            math.isfinite(total)
+            and self._low[0] <= feat[0] <= self._high[0]
+            and self._low[1] <= feat[1] <= self._high[1]
+            and (not ids.size or float(np.abs(rows[:, 1:3]).max()) <= self._high[8])
+        )
+        if inside:
+            return feat.astype(np.float32), False
+        out = np.minimum(np.maximum(np.nan_to_num(feat), self._low), self._high)
+        return out.astype(np.float32), True

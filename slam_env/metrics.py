@@ -60,6 +60,14 @@ def _nees3(e: list[float], p: list[list[float]]) -> float:
     return quad / det
 
 
+def pose_nees_from_error(error: list[float], cov: list[list[float]]) -> float:
+    """The pose NEES of an error (dx, dy, dθ) given as Python floats, its covariance
+    as nested lists: the per-step hot path of the belief wrapper."""
+    if not any(error):
+        return 0.0
+    return _nees3(error, cov)
+
+
 def pose_nees(estimate, cov, truth) -> float:
     """NEES of a pose estimate (3 DOF), heading error wrapped."""
     return nees(pose_error(estimate, truth), np.asarray(cov)[:3, :3])
@@ -90,7 +98,7 @@ def log_det_psd(cov, floor: float = 0.0) -> float:
         cov.flat[:: cov.shape[0] + 1] += floor
     try:
         chol = np.linalg.cholesky(cov)
-        return float(2.0 * np.sum(np.log(np.diagonal(chol))))
+        return 2.0 * float(np.log(chol.diagonal()).sum())
     except np.linalg.LinAlgError:
         eig = np.linalg.eigvalsh(cov)
         return float(np.sum(np.log(np.maximum(eig, max(floor, 1e-300)))))

@@ -11,12 +11,12 @@ import numpy as np
 
 from slam_env import metrics
 from slam_env.belief import BeliefGeometry, EgocentricEncoding, FullEncoding
-from slam_env.ekf import CORRECTED, EKFSLAM, REJECTED, chi2_gate
+from slam_env.ekf import CORRECTED, CORRECTION_MODES, EKFSLAM, REJECTED, chi2_gate
 from slam_env.env import unpack_detections
+from slam_env.geometry import wrap_angle
 from slam_env.overlay import BeliefOverlay
 
 OBSERVATION_MODES = ("egocentric", "full")
-CORRECTION_MODES = ("sequential", "batch")
 # The default validation gate: χ²(2 dof) at 99.9%. A noise-matched filter rejects one
 # good observation in a thousand, while a gross outlier (say 10σ) never passes.
 DEFAULT_GATE = chi2_gate(0.999)
@@ -228,15 +228,17 @@ class EKFSLAMWrapper(gym.ObservationWrapper):
         mean, cov, ids = f.mean, f.cov, f.state_to_id
         obs, clipped = self._encoding.encode(mean, cov, ids)
         obs = self._with_scan(obs, raw)
-        err = metrics.pose_error(mean, info["pose"])
+        x, y, th = mean[:3].tolist()
+        tx, ty, tth = info["pose"].tolist()
+        err = [x - tx, y - ty, wrap_angle(th - tth)]
         if ids.size:
             map_rmse = metrics.map_rmse(mean[3:].reshape(-1, 2), self._truth_by_id[ids])
         else:
             map_rmse = math.nan
         info["pose_error"] = math.hypot(err[0], err[1])
-        info["heading_error"] = abs(float(err[2]))
+        info["heading_error"] = abs(err[2])
         info["map_rmse"] = map_rmse
-        info["pose_nees"] = metrics.nees(err, cov[:3, :3])
+        info["pose_nees"] = metrics.pose_nees_from_error(err, cov[:3, :3].tolist())
         info["landmarks_known"] = int(ids.size)
         info["rejected"] = int(f.n_rejected)
         info["entropy"] = self.belief_entropy(cov)
