@@ -19,21 +19,14 @@ def pose_error(estimate, truth) -> np.ndarray:
     return err
 
 
-def position_error(estimate, truth) -> float:
-    """Euclidean distance between the estimated and the true position, m."""
-    est = np.asarray(estimate, dtype=np.float64)
-    tru = np.asarray(truth, dtype=np.float64)
-    return float(math.hypot(est[0] - tru[0], est[1] - tru[1]))
-
-
 def nees(error, cov) -> float:
     """Normalised estimation error squared eᵀ Σ⁻¹ e: 0 for a zero error (an exactly
     known state), inf if Σ is singular along a non-zero e."""
     error = np.asarray(error, dtype=np.float64)
+    if error.shape == (3,):
+        return pose_nees_from_error(error.tolist(), np.asarray(cov, dtype=np.float64).tolist())
     if not error.any():
         return 0.0
-    if error.shape == (3,):
-        return _nees3(error.tolist(), np.asarray(cov, dtype=np.float64).tolist())
     try:
         solved = np.linalg.solve(np.asarray(cov, dtype=np.float64), error)
     except np.linalg.LinAlgError:
@@ -66,11 +59,6 @@ def pose_nees_from_error(error: list[float], cov: list[list[float]]) -> float:
     if not any(error):
         return 0.0
     return _nees3(error, cov)
-
-
-def pose_nees(estimate, cov, truth) -> float:
-    """NEES of a pose estimate (3 DOF), heading error wrapped."""
-    return nees(pose_error(estimate, truth), np.asarray(cov)[:3, :3])
 
 
 def map_rmse(estimates, truths) -> float:

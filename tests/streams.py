@@ -54,3 +54,20 @@ def rollout_digest(
             _feed(h, (obs, info))
     env.close()
     return h.hexdigest()
+
+
+def pickled_twin_digests(env_id: str, seed: int, warmup: int, **kwargs: Any) -> tuple[str, str]:
+    """Run ``warmup`` seeded random steps, pickle the env, then feed the same 100
+    actions to the original and the copy: the digests of both continuations."""
+    import pickle
+
+    import slam_env  # noqa: F401  (registers the env IDs)
+
+    env = gym.make(env_id, **kwargs)
+    env.action_space.seed(seed)
+    env.reset(seed=seed)
+    for _ in range(warmup):
+        env.step(env.action_space.sample())
+    twin = pickle.loads(pickle.dumps(env))
+    actions = [env.action_space.sample() for _ in range(100)]
+    return digest([env.step(a) for a in actions]), digest([twin.step(a) for a in actions])

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import math
-import pickle
 import subprocess
 import sys
 import warnings
@@ -14,7 +13,7 @@ import pytest
 from gymnasium.utils.env_checker import check_env as gym_check_env
 from stable_baselines3.common.env_checker import check_env as sb3_check_env
 
-from tests.streams import digest, rollout_digest
+from tests.streams import digest, pickled_twin_digests, rollout_digest
 
 ENV_ID = "slam_env/Landmarks-v0"
 
@@ -112,17 +111,8 @@ def test_seeded_rollouts_are_bit_identical_across_processes():
 
 
 def test_pickle_mid_episode_continues_identically():
-    env = gym.make(ENV_ID)
-    env.action_space.seed(5)
-    env.reset(seed=5)
-    for _ in range(40):
-        env.step(env.action_space.sample())
-    twin = pickle.loads(pickle.dumps(env))
-    actions = [env.action_space.sample() for _ in range(100)]
-    streams = []
-    for e in (env, twin):
-        streams.append(digest([e.step(a) for a in actions]))
-    assert streams[0] == streams[1]
+    original, copy = pickled_twin_digests(ENV_ID, seed=5, warmup=40)
+    assert original == copy
 
 
 def test_reset_draws_a_new_random_world_and_same_seed_gives_same_world():

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import math
-import pickle
 import warnings
 
 import gymnasium as gym
@@ -18,7 +17,7 @@ from slam_env.ekf import EKFSLAM
 from slam_env.env import unpack_detections
 from slam_env.metrics import nees_band
 from slam_env.wrappers import DEFAULT_GATE, EKFSLAMWrapper
-from tests.streams import digest
+from tests.streams import pickled_twin_digests
 
 ENV_ID = "slam_env/ActiveSLAM-v0"
 
@@ -211,14 +210,8 @@ def test_subproc_vec_env_and_ppo_smoke(tmp_path):
 
 
 def test_pickle_mid_episode_continues_identically():
-    env = gym.make(ENV_ID)
-    env.action_space.seed(9)
-    env.reset(seed=9)
-    for _ in range(50):
-        env.step(env.action_space.sample())
-    twin = pickle.loads(pickle.dumps(env))
-    actions = [env.action_space.sample() for _ in range(100)]
-    assert digest([env.step(a) for a in actions]) == digest([twin.step(a) for a in actions])
+    original, copy = pickled_twin_digests(ENV_ID, seed=9, warmup=50)
+    assert original == copy
 
 
 def test_render_draws_the_belief():
