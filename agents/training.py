@@ -66,7 +66,7 @@ class PPOParams:
 class TrainConfig:
     """Everything ``train`` needs. Frequencies count env steps (all envs together)."""
 
-    total_timesteps: int = 800_000
+    total_timesteps: int = 1_000_000
     n_envs: int = 2  # SubprocVecEnv workers; 1 runs in-process (DummyVecEnv)
     seed: int = 0
     env_options: dict[str, Any] = field(default_factory=dict)  # ActiveSLAMEnv options

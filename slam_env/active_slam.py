@@ -2,8 +2,9 @@
 active-SLAM reward, as one ``gymnasium.Env``.
 
 The registered env is a thin :class:`gymnasium.Env` that owns the wrapper stack
-``LandmarksEnv → EKFSLAMWrapper → ActiveSLAMReward`` and delegates to it, so that the
-env checkers see an unwrapped env and users reach the filter as ``env.unwrapped.filter``.
+``LandmarksEnv → EKFSLAMWrapper → CoverageWrapper → ActiveSLAMReward`` and delegates to
+it, so that the env checkers see an unwrapped env and users reach the filter as
+``env.unwrapped.filter``.
 Users who want the wrappers on their own env use them directly.
 """
 
@@ -15,6 +16,7 @@ from typing import Any, SupportsFloat
 import gymnasium as gym
 import numpy as np
 
+from slam_env.coverage import CoverageWrapper
 from slam_env.ekf import EKFSLAM
 from slam_env.env import LandmarksEnv
 from slam_env.wrappers import (
@@ -33,7 +35,8 @@ class ActiveSLAMEnv(gym.Env):
 
     The world, robot, sensors and episode end are those of
     :class:`slam_env.env.LandmarksEnv`; the observation is the belief of
-    :class:`slam_env.wrappers.EKFSLAMWrapper` and the reward that of
+    :class:`slam_env.wrappers.EKFSLAMWrapper` with the swept-area memory of
+    :class:`slam_env.coverage.CoverageWrapper`, and the reward that of
     :class:`slam_env.wrappers.ActiveSLAMReward` (terms in ``info["reward_terms"]``).
 
     ## Arguments
@@ -41,10 +44,15 @@ class ActiveSLAMEnv(gym.Env):
     ``"batch"``), ``gate`` (χ² threshold or ``None``), ``filter_alphas``,
     ``filter_control_noise``, ``filter_measurement_cov`` (a mismatched filter; default:
     the env's true noise), ``reward_weights`` (an :class:`ActiveSLAMRewardWeights` or a
-    dict of its fields); every other option goes to :class:`LandmarksEnv`, where
-    ``scan_beams`` defaults to 16 here: a policy needs to see obstacles, which the
-    landmark map does not hold. The scan is appended to the egocentric observation
-    (and is the ``scan`` key of the full one).
+    dict of its fields), ``coverage`` (default ``True``: a
+    :class:`slam_env.coverage.CoverageWrapper` adds the swept-area features, which a
+    policy needs to know where it has not looked yet); every other option goes to
+    :class:`LandmarksEnv`, where ``scan_beams`` defaults to 16 and ``bumper`` to
+    ``True`` here: a policy needs to see obstacles, which the landmark map does not
+    hold, and to feel when one blocks it (a corner can hide between two beams). The
+    egocentric observation is the belief features, then the scan and the bumper, then
+    the coverage features; the full one holds them as the ``scan``, ``bumper`` and
+    ``coverage`` keys.
     """
 
     metadata = LandmarksEnv.metadata
@@ -59,6 +67,7 @@ class ActiveSLAMEnv(gym.Env):
         filter_control_noise: tuple[float, float, float, float] | None = None,
         filter_measurement_cov: np.ndarray | None = None,
         reward_weights: ActiveSLAMRewardWeights | Mapping[str, float] | None = None,
+        coverage: bool = True,
         **env_options: Any,
     ) -> None:
         if isinstance(reward_weights, Mapping):
@@ -67,9 +76,12 @@ class ActiveSLAMEnv(gym.Env):
             if unknown:
                 raise TypeError(f"unknown reward_weights {unknown}; valid: {sorted(valid)}")
             reward_weights = ActiveSLAMRewardWeights(**reward_weights)
+        # A policy must see obstacles, which the landmark map does not hold, and feel
+        # when one blocks it (a corner can hide between two beams).
         if not {"config", "sensor", "scan_beams"} & set(env_options):
-            # A policy must see obstacles that the landmark map does not hold.
             env_options["scan_beams"] = DEFAULT_SCAN_BEAMS
+        if not {"config", "sensor", "bumper"} & set(env_options):
+            env_options["bumper"] = True
         self.raw_env = LandmarksEnv(render_mode=render_mode, **env_options)
         self.belief_wrapper = EKFSLAMWrapper(
             self.raw_env,
@@ -80,7 +92,12 @@ class ActiveSLAMEnv(gym.Env):
             control_noise=filter_control_noise,
             measurement_cov=filter_measurement_cov,
         )
-        self._stack = ActiveSLAMReward(self.belief_wrapper, reward_weights)
+        if not isinstance(coverage, bool):
+            raise TypeError(f"coverage must be a bool, got {coverage!r}")
+        belief: gym.Env = self.belief_wrapper
+        if coverage:
+            belief = CoverageWrapper(belief)
+        self._stack = ActiveSLAMReward(belief, reward_weights)
         self.render_mode = render_mode
         self.observation_space = self._stack.observation_space
         self.action_space = self._stack.action_space

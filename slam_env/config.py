@@ -120,6 +120,7 @@ class SensorConfig:
     max_detections: int | None = None  # rows of the padded array; None: one per landmark
     scan_beams: int = 0  # proximity beams evenly spread over 360°; 0: no "scan" observation
     scan_range: float = 3.0  # m, reach of the proximity beams
+    bumper: bool = False  # a contact sensor: a "bumper" observation, 1.0 after a blocked step
 
     def __post_init__(self) -> None:
         _check_choice(
@@ -143,6 +144,8 @@ class SensorConfig:
             _check_int("SensorConfig", 1, max_detections=self.max_detections)
         _check_int("SensorConfig", 0, scan_beams=self.scan_beams)
         _check_positive("SensorConfig", scan_range=self.scan_range)
+        if not isinstance(self.bumper, bool):
+            raise TypeError(f"SensorConfig.bumper must be a bool, got {self.bumper!r}")
 
     @property
     def measurement_cov(self):

@@ -71,6 +71,8 @@ class LandmarksEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
     | ``scan``       | (B,)   | only with ``scan_beams=B > 0``: a proximity scan, the free    |
     |                |        | distance along B beams spread over 360° (the first from       |
     |                |        | behind, counter-clockwise) / ``scan_range``, in [0, 1]        |
+    | ``bumper``     | (1,)   | only with ``bumper=True``: a contact sensor, 1.0 when the     |
+    |                |        | last step was blocked (as ``info["collision"]``), else 0.0    |
 
     ``detections`` is flat so that every key is a vector (what stable-baselines3's
     policies expect); :func:`unpack_detections` returns the valid ``(k, 2)`` rows and
@@ -202,6 +204,8 @@ class LandmarksEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         }
         if beams:
             obs_spaces["scan"] = spaces.Box(0.0, 1.0, (beams,), np.float32)
+        if cfg.sensor.bumper:
+            obs_spaces["bumper"] = spaces.Box(0.0, 1.0, (1,), np.float32)
         return spaces.Dict(obs_spaces)
 
     # ------------------------------------------------------------------ API
@@ -241,6 +245,8 @@ class LandmarksEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         obs = self._get_obs(zero_control, det_ids, z)
         if self._scan_angles:
             obs["scan"] = self._scan(pose)
+        if self.config.sensor.bumper:
+            obs["bumper"] = np.zeros(1, dtype=np.float32)  # layouts start clear
         info = self._get_info(pose, zero_control, {"new_landmarks": 0.0, "collision": 0.0})
         if self.render_mode == "human":
             self.render()
@@ -292,6 +298,8 @@ class LandmarksEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         obs = self._get_obs(control, det_ids, z)
         if self._scan_angles:
             obs["scan"] = self._scan(pose1)
+        if cfg.sensor.bumper:
+            obs["bumper"] = np.array([1.0 if collided else 0.0], dtype=np.float32)
         info = self._get_info(pose1, true_control, terms)
         if self._faults_on:
             info["kidnapped"] = kidnapped

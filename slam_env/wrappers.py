@@ -17,6 +17,9 @@ from slam_env.geometry import wrap_angle
 from slam_env.overlay import BeliefOverlay
 
 OBSERVATION_MODES = ("egocentric", "full")
+# Raw observation keys handed to the policy as they are, in this order: the proximity
+# sensors, which say where obstacles are (the landmark map does not hold them).
+PASSTHROUGH_KEYS = ("scan", "bumper")
 # The default validation gate: χ²(2 dof) at 99.9%. A noise-matched filter rejects one
 # good observation in a thousand, while a gross outlier (say 10σ) never passes.
 DEFAULT_GATE = chi2_gate(0.999)
@@ -55,6 +58,10 @@ class EKFSLAMWrapper(gym.ObservationWrapper):
         gate: χ² threshold on the innovation's Mahalanobis distance (2 dof), or
             ``None`` to accept everything. Default: the 99.9% quantile.
         initial_pose_cov: (3, 3) covariance of the start pose; default zeros (known).
+
+    The raw proximity sensors, if the env has them (``scan``, ``bumper``), are passed
+    through: appended to the egocentric features in that order, or as their own keys of
+    the full belief.
 
     ``info`` gains, every step: ``pose_error`` (m), ``heading_error`` (rad),
     ``map_rmse`` (m, over known landmarks; nan before the first), ``pose_nees``,
@@ -116,19 +123,19 @@ class EKFSLAMWrapper(gym.ObservationWrapper):
         else:
             self._encoding = EgocentricEncoding(self._geometry)
         self.observation_space = self._encoding.space
-        # The raw proximity scan, if the env has one, is passed through: appended to the
-        # egocentric features, or as the "scan" key of the full belief.
-        self._scan_space = env.observation_space.spaces.get("scan")
-        if self._scan_space is not None:
+        # The raw proximity sensors the env has (scan, bumper) are passed through:
+        # appended to the egocentric features, or as their own keys of the full belief.
+        raw_spaces = env.observation_space.spaces
+        self._passthrough = tuple(k for k in PASSTHROUGH_KEYS if k in raw_spaces)
+        if self._passthrough:
+            extra = {k: raw_spaces[k] for k in self._passthrough}
             if observation == "full":
-                self.observation_space = gym.spaces.Dict(
-                    {**self.observation_space.spaces, "scan": self._scan_space}
-                )
+                self.observation_space = gym.spaces.Dict({**self.observation_space.spaces, **extra})
             else:
                 space = self.observation_space
                 self.observation_space = gym.spaces.Box(
-                    np.concatenate([space.low, self._scan_space.low]),
-                    np.concatenate([space.high, self._scan_space.high]),
+                    np.concatenate([space.low, *(e.low for e in extra.values())]),
+                    np.concatenate([space.high, *(e.high for e in extra.values())]),
                     dtype=np.float32,
                 )
         self._last_clipped = False
@@ -161,15 +168,16 @@ class EKFSLAMWrapper(gym.ObservationWrapper):
         already been folded into the filter by ``reset``/``step``)."""
         f = self.filter
         obs, self._last_clipped = self._encoding.encode(f.mean, f.cov, f.state_to_id)
-        return self._with_scan(obs, observation)
+        return self._with_passthrough(obs, observation)
 
-    def _with_scan(self, obs: Any, raw: dict[str, np.ndarray]) -> Any:
-        if self._scan_space is None:
+    def _with_passthrough(self, obs: Any, raw: dict[str, np.ndarray]) -> Any:
+        if not self._passthrough:
             return obs
         if self.observation_mode == "full":
-            obs["scan"] = raw["scan"].copy()
+            for key in self._passthrough:
+                obs[key] = raw[key].copy()
             return obs
-        return np.concatenate([obs, raw["scan"]])
+        return np.concatenate([obs, *(raw[k] for k in self._passthrough)])
 
     def belief_entropy(self, cov: np.ndarray | None = None) -> float:
         """Entropy (nats) of the belief over the pose and all ``max_landmarks`` slots:
@@ -227,7 +235,7 @@ class EKFSLAMWrapper(gym.ObservationWrapper):
         f = self.filter
         mean, cov, ids = f.mean, f.cov, f.state_to_id
         obs, clipped = self._encoding.encode(mean, cov, ids)
-        obs = self._with_scan(obs, raw)
+        obs = self._with_passthrough(obs, raw)
         x, y, th = mean[:3].tolist()
         tx, ty, tth = info["pose"].tolist()
         err = [x - tx, y - ty, wrap_angle(th - tth)]
@@ -253,6 +261,9 @@ class EKFSLAMWrapper(gym.ObservationWrapper):
         return obs, info
 
 
+REWARD_TERMS = ("information_gain", "pose_uncertainty", "collision", "step", "coverage")
+
+
 @dataclass(frozen=True)
 class ActiveSLAMRewardWeights:
     """Weights of the active-SLAM reward terms (see :class:`ActiveSLAMReward`)."""
@@ -261,9 +272,10 @@ class ActiveSLAMRewardWeights:
     pose_uncertainty: float = 0.1  # per m of pose standard deviation, each step
     collision: float = 1.0  # per step in contact
     step: float = 0.01  # per step
+    coverage: float = 0.0  # per share of the arena newly swept (needs a CoverageWrapper)
 
     def __post_init__(self) -> None:
-        for name in ("information_gain", "pose_uncertainty", "collision", "step"):
+        for name in REWARD_TERMS:
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, (int, float)):
                 raise TypeError(f"reward weight {name} must be a number, got {value!r}")
@@ -282,6 +294,10 @@ class ActiveSLAMReward(gym.Wrapper):
       care *when* the robot is lost; this term pays for closing loops early.
     * ``collision`` = −w on a step in contact: the map does not see obstacles.
     * ``step`` = −w: a small time cost, so that finishing early is better.
+    * ``coverage`` = w · (the share of the arena newly swept by the sensor, from a
+      :class:`slam_env.coverage.CoverageWrapper` below): off by default. Information
+      gain pays only when a landmark turns up; this pays for looking where none has
+      been seen yet, a dense signal that speeds up learning to explore.
 
     The terms are reported in ``info["reward_terms"]``; the raw env's scripting terms
     move to ``info["raw_reward_terms"]``. The reward is their sum, a Python float.
@@ -293,33 +309,40 @@ class ActiveSLAMReward(gym.Wrapper):
         if not isinstance(self.weights, ActiveSLAMRewardWeights):
             raise TypeError("weights must be an ActiveSLAMRewardWeights")
         self._entropy = 0.0
+        self._swept = 0.0
 
     def reset(self, **kwargs: Any) -> tuple[Any, dict[str, Any]]:
         obs, info = self.env.reset(**kwargs)
         self._require_belief_info(info)
         self._entropy = info["entropy"]
+        self._swept = info.get("swept_fraction", 0.0)
         info["raw_reward_terms"] = info.pop("reward_terms", {})
-        info["reward_terms"] = dict.fromkeys(
-            ("information_gain", "pose_uncertainty", "collision", "step"), 0.0
-        )
+        info["reward_terms"] = dict.fromkeys(REWARD_TERMS, 0.0)
         return obs, info
 
     def step(self, action: Any) -> tuple[Any, SupportsFloat, bool, bool, dict[str, Any]]:
         obs, _, terminated, truncated, info = self.env.step(action)
         w = self.weights
         entropy = info["entropy"]
+        swept = info.get("swept_fraction", 0.0)
         terms = {
             "information_gain": w.information_gain * (self._entropy - entropy),
             "pose_uncertainty": -w.pose_uncertainty * info["pose_std"],
             "collision": -w.collision if info["collision"] else 0.0,
             "step": -w.step,
+            "coverage": w.coverage * (swept - self._swept),
         }
         self._entropy = entropy
+        self._swept = swept
         info["raw_reward_terms"] = info.pop("reward_terms", {})
         info["reward_terms"] = terms
         return obs, float(sum(terms.values())), terminated, truncated, info
 
-    @staticmethod
-    def _require_belief_info(info: dict[str, Any]) -> None:
+    def _require_belief_info(self, info: dict[str, Any]) -> None:
         if "entropy" not in info:
             raise TypeError("ActiveSLAMReward must wrap an EKFSLAMWrapper (info has no entropy)")
+        if self.weights.coverage and "swept_fraction" not in info:
+            raise TypeError(
+                "ActiveSLAMReward with a coverage weight must wrap a CoverageWrapper "
+                "(info has no swept_fraction)"
+            )

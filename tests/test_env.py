@@ -239,6 +239,7 @@ def test_misspelt_option_is_an_error():
         ({"preset": "maze"}, "preset"),
         ({"alphas": (0.1, 0.1, 0.1)}, "alphas"),
         ({"detection_prob": 1.5}, "detection_prob"),
+        ({"bumper": 1}, "bumper must be a bool"),
         ({"render_mode": "ascii"}, "render_mode"),
     ],
 )
@@ -292,6 +293,25 @@ def test_proximity_scan_is_optional_and_normalised():
         to_x = (0.0 - 3.0) / c if c < 0 else (10.0 - 3.0) / c
         to_y = (0.0 - 5.0) / s if s < 0 else (10.0 - 5.0) / s
         assert reading == pytest.approx(min(to_x, to_y, 4.0) / 4.0, abs=1e-6)
+
+
+def test_bumper_reports_the_blocked_steps():
+    assert "bumper" not in gym.make(ENV_ID).observation_space.spaces
+    layout = {"width": 6.0, "height": 6.0, "landmarks": [[5.5, 5.5]], "start": [4.5, 3.0, 0.0]}
+    env = gym.make(ENV_ID, layout=layout, bumper=True)
+    obs, _ = env.reset(seed=0)
+    assert obs["bumper"].tolist() == [0.0]
+    readings, collisions = [], []
+    for _ in range(15):  # into the east wall, then away from it
+        obs, _, _, _, info = env.step(np.array([1.0, 0.0], dtype=np.float32))
+        assert env.observation_space.contains(obs)
+        readings.append(obs["bumper"][0])
+        collisions.append(info["collision"])
+    obs, _, _, _, info = env.step(np.array([-1.0, 0.0], dtype=np.float32))
+    readings.append(obs["bumper"][0])
+    collisions.append(info["collision"])
+    assert readings == [float(c) for c in collisions]
+    assert collisions[0] is False and collisions[-2] is True and collisions[-1] is False
 
 
 def test_record_video_of_the_env(tmp_path):

@@ -246,3 +246,33 @@ def test_wrapper_usable_directly_on_the_raw_env():
     obs, info = env.reset(seed=0)
     assert env.observation_space.contains(obs)
     assert info["landmarks_known"] == int(obs["known"].sum())
+
+
+class LastObservation(gym.Wrapper):
+    """Keeps the last raw observation the wrapped env returned."""
+
+    def step(self, action):
+        result = super().step(action)
+        self.last = result[0]
+        return result
+
+
+@pytest.mark.parametrize("observation", ["egocentric", "full"])
+def test_proximity_sensors_pass_through(observation):
+    raw = LastObservation(slam_env.env.LandmarksEnv(n_landmarks=5, scan_beams=4, bumper=True))
+    env = EKFSLAMWrapper(raw, observation=observation)
+    bare = EKFSLAMWrapper(slam_env.env.LandmarksEnv(n_landmarks=5), observation=observation)
+    env.reset(seed=2)
+    bare.reset(seed=2)
+    for _ in range(60):  # long enough to bump into something
+        action = np.array([1.0, -0.2], dtype=np.float32)
+        obs, *_ = env.step(action)
+        bare_obs, *_ = bare.step(action)
+        assert env.observation_space.contains(obs)
+        expected = np.concatenate([raw.last["scan"], raw.last["bumper"]])
+        if observation == "full":
+            np.testing.assert_array_equal(np.concatenate([obs["scan"], obs["bumper"]]), expected)
+            np.testing.assert_array_equal(obs["mean"], bare_obs["mean"])
+        else:
+            np.testing.assert_array_equal(obs[bare_obs.size :], expected)
+            np.testing.assert_array_equal(obs[: bare_obs.size], bare_obs)

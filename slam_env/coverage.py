@@ -1,0 +1,253 @@
+"""Swept-area memory: which parts of the arena the landmark sensor has looked at,
+seen from the *estimated* pose, and egocentric features of what is left to look at.
+
+The belief says where the known landmarks are but nothing about where the unknown ones
+may still hide; a memoryless policy needs that to explore. :class:`CoverageGrid` keeps
+a coarse grid of swept cells and summarises the unswept share per sector around the
+robot; :class:`CoverageWrapper` puts it in the observation and ``info``.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any, SupportsFloat
+
+import gymnasium as gym
+import numpy as np
+
+TWO_PI = 2.0 * math.pi
+
+
+class CoverageGrid:
+    """A grid over the arena of the cells a range-and-FOV sensor has swept.
+
+    A cell is swept when its centre has been within ``sweep_range`` of the (estimated)
+    position and within ±``fov``/2 of the heading, measured from the centre of the
+    robot's cell with the heading rounded to one of ``heading_bins`` directions.
+    Occlusion is ignored: the memory is a cheap guide for exploration, not a
+    visibility map.
+
+    The features are the unswept share of the cells in each of ``sectors`` equal
+    sectors around the robot (sector k is centred on bearing 2πk/``sectors`` from the
+    heading, counter-clockwise) and each distance ring (bounded by ``ring_edges``, m,
+    the last ring unbounded), ring-major: feature ``r·sectors + k``. A region that
+    holds no arena cell has share 0: nothing left to see there.
+
+    Footprints and region maps are tabulated per heading bin once, so that a step
+    costs a few array operations on the grid.
+
+    Args:
+        width, height: m, the arena.
+        sweep_range: m, how far a cell counts as seen.
+        fov: rad, the full opening angle (2π: all around).
+        cell: m, the cell side.
+        sectors: sectors around the robot.
+        ring_edges: m, increasing inner edges of the rings after the first.
+        heading_bins: directions the heading is rounded to.
+    """
+
+    def __init__(
+        self,
+        width: float,
+        height: float,
+        sweep_range: float,
+        fov: float,
+        *,
+        cell: float = 0.5,
+        sectors: int = 8,
+        ring_edges: tuple[float, ...] = (5.0, 10.0),
+        heading_bins: int = 72,
+    ) -> None:
+        for name, value in (("width", width), ("height", height), ("cell", cell)):
+            if not (math.isfinite(value) and value > 0.0):
+                raise ValueError(f"CoverageGrid {name} must be finite and > 0, got {value}")
+        if not (math.isfinite(sweep_range) and sweep_range >= 0.0):
+            raise ValueError(f"CoverageGrid sweep_range must be finite and >= 0, got {sweep_range}")
+        if not 0.0 < fov <= TWO_PI:
+            raise ValueError(f"CoverageGrid fov must be in (0, 2π], got {fov}")
+        for name, value in (("sectors", sectors), ("heading_bins", heading_bins)):
+            if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+                raise ValueError(f"CoverageGrid {name} must be an int >= 1, got {value!r}")
+        edges = np.asarray(ring_edges, dtype=np.float64)
+        if edges.ndim != 1 or np.any(edges <= 0.0) or np.any(np.diff(edges) <= 0.0):
+            raise ValueError(f"CoverageGrid ring_edges must increase and be > 0, got {ring_edges}")
+        self.cell = float(cell)
+        self.nx = max(math.ceil(width / cell), 1)
+        self.ny = max(math.ceil(height / cell), 1)
+        self.sectors = sectors
+        self.n_features = sectors * (edges.size + 1)
+        self.heading_bins = heading_bins
+        headings = np.arange(heading_bins) * (TWO_PI / heading_bins)
+
+        # Offsets (in cells) from the robot's cell to every cell of the grid.
+        di = np.arange(-(self.ny - 1), self.ny)[:, None]
+        dj = np.arange(-(self.nx - 1), self.nx)[None, :]
+        dist = np.hypot(di, dj) * self.cell
+        bearing = np.arctan2(di, dj)
+        # Region (ring·sectors + sector) of every offset, per heading bin; a step slices
+        # the window that the robot's cell sees.
+        turned = (bearing[None] - headings[:, None, None] + math.pi / sectors) % TWO_PI
+        sector = np.minimum((turned * (sectors / TWO_PI)).astype(np.intp), sectors - 1)
+        ring = np.searchsorted(edges, dist, side="right")
+        self._regions = (ring * sectors + sector).astype(np.min_scalar_type(self.n_features))
+
+        # The swept cells live inside a border of always-swept cells as wide as the
+        # footprint, so a footprint never needs clipping and never counts the border.
+        self._pad = math.ceil(sweep_range / self.cell)
+        p = self._pad
+        self._stride = self.nx + 2 * p
+        self._padded = np.ones((self.ny + 2 * p, self._stride), dtype=bool)
+        # The footprint per heading bin, as offsets into the flattened padded grid.
+        near = dist <= sweep_range
+        foot_di = np.broadcast_to(di, dist.shape)[near]
+        foot_dj = np.broadcast_to(dj, dist.shape)[near]
+        off = (bearing[near][None] - headings[:, None] + math.pi) % TWO_PI - math.pi
+        # The robot's own cell is always seen, whatever its offset's nominal bearing.
+        in_view = (np.abs(off) <= 0.5 * fov) | ((foot_di == 0) & (foot_dj == 0))[None]
+        flat = foot_di * self._stride + foot_dj
+        self._footprints = [flat[row] for row in in_view]
+        self.reset()
+
+    @property
+    def swept(self) -> np.ndarray:
+        """(ny, nx) bool, row i at y ∈ [i·cell, (i+1)·cell): the cells swept so far
+        (a view; a property, so that a pickled copy views its own padded grid)."""
+        p = self._pad
+        return self._padded[p : p + self.ny, p : p + self.nx]
+
+    @property
+    def size(self) -> int:
+        """Number of cells."""
+        return self.nx * self.ny
+
+    @property
+    def swept_fraction(self) -> float:
+        """Share of the arena's cells swept so far."""
+        return self._n_swept / self.size
+
+    def reset(self) -> None:
+        """Forget everything swept."""
+        self.swept[:] = False
+        self._n_swept = 0
+
+    def cell_of(self, x: float, y: float) -> tuple[int, int]:
+        """(row, column) of the cell holding (x, y), clamped into the grid (a diverged
+        estimate outside the arena sweeps from the nearest border cell)."""
+        i = math.floor(y / self.cell) if math.isfinite(y) else 0
+        j = math.floor(x / self.cell) if math.isfinite(x) else 0
+        return min(max(i, 0), self.ny - 1), min(max(j, 0), self.nx - 1)
+
+    def heading_bin(self, theta: float) -> int:
+        """The tabulated direction nearest to ``theta``."""
+        if not math.isfinite(theta):
+            return 0
+        return round(theta % TWO_PI * (self.heading_bins / TWO_PI)) % self.heading_bins
+
+    def sweep(self, x: float, y: float, theta: float) -> int:
+        """Mark the footprint seen from pose (x, y, θ) swept; return the new cells."""
+        i, j = self.cell_of(x, y)
+        base = (i + self._pad) * self._stride + j + self._pad
+        cells = self._footprints[self.heading_bin(theta)] + base
+        flat = self._padded.reshape(-1)  # a view: the padded grid is contiguous
+        new = cells.size - int(np.count_nonzero(flat[cells]))
+        flat[cells] = True
+        self._n_swept += new
+        return new
+
+    def features(self, x: float, y: float, theta: float) -> np.ndarray:
+        """(n_features,) float64 in [0, 1]: the unswept share per sector and ring
+        around pose (x, y, θ) (see the class docstring)."""
+        i, j = self.cell_of(x, y)
+        regions = self._regions[
+            self.heading_bin(theta),
+            self.ny - 1 - i : 2 * self.ny - 1 - i,
+            self.nx - 1 - j : 2 * self.nx - 1 - j,
+        ].ravel()
+        total = np.bincount(regions, minlength=self.n_features)
+        unswept = np.bincount(regions, weights=~self.swept.ravel(), minlength=self.n_features)
+        return unswept / np.maximum(total, 1)
+
+
+class CoverageWrapper(gym.ObservationWrapper):
+    """Adds swept-area memory to a belief observation (an :class:`EKFSLAMWrapper`
+    below it supplies the estimated pose; ``slam_env/ActiveSLAM-v0`` stacks it by
+    default).
+
+    The landmark sensor's footprint (its FOV, and its range less one cell, so a cell
+    counts as swept only well inside it) is swept into a :class:`CoverageGrid` from the
+    filter's pose on reset and after every step. The observation gains 1 + 8·3 float32
+    features in [0, 1]: the share of the arena swept so far, then the unswept share per
+    45° sector around the estimated heading (sector 0 ahead, counter-clockwise) in the
+    rings 0–R, R–2R and beyond 2R, R the sensor range. They are appended to a ``Box``
+    observation, or are the ``coverage`` key of a ``Dict`` one. ``info`` gains
+    ``swept_fraction``.
+
+    Args:
+        env: an env with an :class:`EKFSLAMWrapper` in its stack.
+        cell: m, the grid's cell side.
+    """
+
+    def __init__(self, env: gym.Env, cell: float = 0.5) -> None:
+        super().__init__(env)
+        try:
+            self._filter = env.get_wrapper_attr("filter")
+        except AttributeError:
+            raise TypeError("CoverageWrapper must wrap an EKFSLAMWrapper (no filter)") from None
+        base = env.unwrapped
+        sensor = base.config.sensor
+        width, height = base.arena_size
+        self.grid = CoverageGrid(
+            width,
+            height,
+            sweep_range=max(sensor.max_range - cell, 0.0),
+            fov=sensor.fov,
+            cell=cell,
+            ring_edges=(sensor.max_range, 2.0 * sensor.max_range),
+        )
+        n = 1 + self.grid.n_features
+        space = gym.spaces.Box(0.0, 1.0, (n,), np.float32)
+        inner = env.observation_space
+        if isinstance(inner, gym.spaces.Dict):
+            self.observation_space = gym.spaces.Dict({**inner.spaces, "coverage": space})
+        elif isinstance(inner, gym.spaces.Box) and len(inner.shape) == 1:
+            self.observation_space = gym.spaces.Box(
+                np.concatenate([inner.low, space.low]),
+                np.concatenate([inner.high, space.high]),
+                dtype=np.float32,
+            )
+        else:
+            raise TypeError(f"CoverageWrapper needs a flat Box or Dict observation, got {inner}")
+
+    def reset(
+        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[Any, dict[str, Any]]:
+        obs, info = self.env.reset(seed=seed, options=options)
+        self.grid.reset()
+        return self._observe(obs, info)
+
+    def step(self, action: Any) -> tuple[Any, SupportsFloat, bool, bool, dict[str, Any]]:
+        obs, reward, terminated, truncated, info = self.env.step(action)
+        obs, info = self._observe(obs, info)
+        return obs, reward, terminated, truncated, info
+
+    def observation(self, observation: Any) -> Any:
+        """``observation`` with the current coverage features (no sweep)."""
+        return self._attach(observation, self._features(*self._filter.mean[:3].tolist()))
+
+    def _observe(self, obs: Any, info: dict[str, Any]) -> tuple[Any, dict[str, Any]]:
+        x, y, theta = self._filter.mean[:3].tolist()
+        self.grid.sweep(x, y, theta)
+        info["swept_fraction"] = self.grid.swept_fraction
+        return self._attach(obs, self._features(x, y, theta)), info
+
+    def _features(self, x: float, y: float, theta: float) -> np.ndarray:
+        features = np.empty(1 + self.grid.n_features, dtype=np.float32)
+        features[0] = self.grid.swept_fraction
+        features[1:] = self.grid.features(x, y, theta)
+        return features
+
+    @staticmethod
+    def _attach(obs: Any, features: np.ndarray) -> Any:
+        if isinstance(obs, dict):
+            return {**obs, "coverage": features}
+        return np.concatenate([obs, features])
