@@ -60,6 +60,7 @@ class PPOParams:
     normalize_advantage: bool = True
     net_arch: list[int] = field(default_factory=lambda: [128, 128])  # pi and vf MLPs
     activation: str = "tanh"
+    log_std_init: float = 0.0  # initial log σ of the Gaussian actions (σ = 1 at 0)
 
 
 @dataclass
@@ -134,6 +135,12 @@ def _validate_ppo(p: PPOParams) -> None:
         "a non-empty list of layer sizes",
     )
     _check(p.activation in ACTIVATIONS, "ppo.activation", p.activation, f"one of {ACTIVATIONS}")
+    _check(
+        _is_number(p.log_std_init) and math.isfinite(p.log_std_init),
+        "ppo.log_std_init",
+        p.log_std_init,
+        "a finite number",
+    )
 
 
 def validate_config(cfg: TrainConfig) -> TrainConfig:
@@ -363,6 +370,7 @@ def train(config: TrainConfig | Mapping[str, Any] | str | Path | None = None) ->
             policy_kwargs={
                 "net_arch": {"pi": list(p.net_arch), "vf": list(p.net_arch)},
                 "activation_fn": activation,
+                "log_std_init": p.log_std_init,
             },
             tensorboard_log=str(out / "tb") if cfg.tensorboard else None,
             seed=cfg.seed,

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import math
 
 import gymnasium as gym
 import numpy as np
@@ -38,7 +39,13 @@ def tiny_config(out_dir, **overrides):
         "eval_freq": 64,
         "eval_episodes": 1,
         "out_dir": str(out_dir),
-        "ppo": {"n_steps": 64, "batch_size": 32, "n_epochs": 1, "net_arch": [16]},
+        "ppo": {
+            "n_steps": 64,
+            "batch_size": 32,
+            "n_epochs": 1,
+            "net_arch": [16],
+            "log_std_init": -1.0,
+        },
     }
     cfg.update(overrides)
     return cfg
@@ -82,6 +89,7 @@ def test_load_config_applies_overrides(tmp_path):
         ({"ppo": {"gamma": 1.5}}, "'ppo.gamma'"),
         ({"ppo": {"net_arch": []}}, "'ppo.net_arch'"),
         ({"ppo": {"activation": "gelu"}}, "'ppo.activation'"),
+        ({"ppo": {"log_std_init": float("nan")}}, "'ppo.log_std_init'"),
         ({"start_method": "thread"}, "'start_method'"),
         ({"ppo": [1, 2]}, "'ppo' must be a mapping"),
         ([1, 2], "must be a mapping"),
@@ -119,6 +127,9 @@ def test_train_writes_model_config_checkpoints_evaluations_and_logs(trained):
     assert any((out / "tb").rglob("events.out.tfevents.*"))
     summary = json.loads((out / "training_summary.json").read_text())
     assert summary["timesteps"] == 128 and summary["env_steps_per_s"] > 0
+    # The action σ started at e⁻¹ (log_std_init) and two small updates barely moved it.
+    sigma = load_ppo_agent(path).model.policy.log_std.exp().detach().numpy()
+    assert np.all(np.abs(sigma - math.exp(-1.0)) < 0.05)
 
 
 def test_ppo_agent_loads_and_acts_deterministically(trained):
