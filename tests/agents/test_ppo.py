@@ -234,6 +234,18 @@ def test_saved_policy_drops_the_optimiser_state_and_acts_the_same(tmp_path):
     env.close()
 
 
+def test_training_is_reproducible_with_parallel_envs(tmp_path):
+    # The shipped policy's claim: the same config and seed give the same policy, also
+    # with SubprocVecEnv workers.
+    params = []
+    for run in ("a", "b"):
+        cfg = tiny_config(tmp_path / run, n_envs=2, eval_freq=0, checkpoint_freq=0)
+        model = load_ppo_agent(train(cfg)).model
+        params.append([t.detach().numpy() for t in model.policy.parameters()])
+    for first, second in zip(*params, strict=True):
+        np.testing.assert_array_equal(first, second)
+
+
 def test_the_shipped_policy_is_small_and_fits_the_default_env():
     from agents.registry import SHIPPED_POLICY
 
