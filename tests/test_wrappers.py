@@ -264,11 +264,13 @@ def test_proximity_sensors_pass_through(observation):
     bare = EKFSLAMWrapper(slam_env.env.LandmarksEnv(n_landmarks=5), observation=observation)
     env.reset(seed=2)
     bare.reset(seed=2)
+    bumps = 0
     for _ in range(60):  # long enough to bump into something
         action = np.array([1.0, -0.2], dtype=np.float32)
         obs, *_ = env.step(action)
         bare_obs, *_ = bare.step(action)
         assert env.observation_space.contains(obs)
+        bumps += int(raw.last["bumper"][0])
         expected = np.concatenate([raw.last["scan"], raw.last["bumper"]])
         if observation == "full":
             np.testing.assert_array_equal(np.concatenate([obs["scan"], obs["bumper"]]), expected)
@@ -276,3 +278,4 @@ def test_proximity_sensors_pass_through(observation):
         else:
             np.testing.assert_array_equal(obs[bare_obs.size :], expected)
             np.testing.assert_array_equal(obs[: bare_obs.size], bare_obs)
+    assert bumps > 0  # the bumper reading was passed through while it was 1, too

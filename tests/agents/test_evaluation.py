@@ -150,20 +150,24 @@ def _read_csv(path):
         return reader.fieldnames, list(reader)
 
 
-@pytest.fixture(scope="module")
-def tiny_eval(tmp_path_factory):
-    out = tmp_path_factory.mktemp("eval")
-    result = evaluate(
+def evaluate_tiny(out_dir):
+    """Every agent, 2 short episodes on the small world, seed 5, quietly."""
+    return evaluate(
         AGENTS,
         episodes=2,
         seed=5,
         env_options=SMALL_WORLD,
-        out_dir=out,
+        out_dir=out_dir,
         max_steps=30,
         progress=False,
         verbose=False,
     )
-    return out, result
+
+
+@pytest.fixture(scope="module")
+def tiny_eval(tmp_path_factory):
+    out = tmp_path_factory.mktemp("eval")
+    return out, evaluate_tiny(out)
 
 
 def test_evaluate_writes_tables_and_plots(tiny_eval):
@@ -236,16 +240,7 @@ def test_evaluate_summary_is_the_mean_of_the_episodes(tiny_eval):
 
 def test_evaluate_is_deterministic(tiny_eval, tmp_path):
     out, _ = tiny_eval
-    evaluate(
-        AGENTS,
-        episodes=2,
-        seed=5,
-        env_options=SMALL_WORLD,
-        out_dir=tmp_path,
-        max_steps=30,
-        progress=False,
-        verbose=False,
-    )
+    evaluate_tiny(tmp_path)
     assert (tmp_path / "episodes.csv").read_text() == (out / "episodes.csv").read_text()
     assert (tmp_path / "summary.csv").read_text() == (out / "summary.csv").read_text()
     assert (tmp_path / "steps.csv.gz").read_bytes() == (out / "steps.csv.gz").read_bytes()
