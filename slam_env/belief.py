@@ -13,6 +13,7 @@ Both clip to their (finite) bounds; the wrapper reports in ``info`` when it had 
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -144,48 +145,73 @@ class EgocentricEncoding:
             ]
         ).astype(np.float32)
         self._low, self._high = low, high
+        self._size = low.shape[0]
+        self._rel_bound = float(high[8]) if m else 0.0  # |robot-frame position| bound
+        self._position_bounds = (float(low[0]), float(high[0]), float(low[1]), float(high[1]))
         self.space = spaces.Box(low, high, dtype=np.float32)
 
     def encode(
-        self, mean: np.ndarray, cov: np.ndarray, state_to_id: np.ndarray
+        self,
+        mean: np.ndarray,
+        cov: np.ndarray,
+        state_to_id: np.ndarray,
+        tail: Sequence[float] = (),
     ) -> tuple[np.ndarray, bool]:
-        """Encode the filter's state; returns the observation and whether it clipped."""
+        """Encode the filter's state; returns the observation and whether it clipped.
+
+        ``tail`` (floats) is appended after the features as it is, unclipped (the
+        wrapper's raw proximity readings, already inside their own bounds).
+
+        The features are computed on Python floats, one pass over the known
+        landmarks: for the tens of landmarks of a world, a numpy call (about a
+        microsecond whatever its size) costs more than a landmark's arithmetic.
+        """
         g = self.geometry
-        x, y, theta = mean[:3].tolist()
+        ml = mean.tolist()
+        dl = cov.diagonal().tolist()
+        x, y, theta = ml[0], ml[1], ml[2]
         c, s = math.cos(theta), math.sin(theta)
-        diag = cov.diagonal()
-        vx, vy, vth = diag[:3].tolist()
-        feat = np.zeros(7 + 4 * g.max_landmarks, dtype=np.float64)
+        sqrt, tanh = math.sqrt, math.tanh
+        vx, vy, vth = dl[0], dl[1], dl[2]
+        feat = [0.0] * self._size
+        # Variances clamped at 0 by comparisons that let a NaN through (to be caught).
         feat[:7] = (
             x / g.width,
             y / g.height,
             c,
             s,
-            math.tanh(math.sqrt(max(vx, 0.0)) / POSITION_STD_SCALE),
-            math.tanh(math.sqrt(max(vy, 0.0)) / POSITION_STD_SCALE),
-            math.tanh(math.sqrt(max(vth, 0.0)) / HEADING_STD_SCALE),
+            tanh(sqrt(0.0 if vx < 0.0 else vx) / POSITION_STD_SCALE),
+            tanh(sqrt(0.0 if vy < 0.0 else vy) / POSITION_STD_SCALE),
+            tanh(sqrt(0.0 if vth < 0.0 else vth) / HEADING_STD_SCALE),
         )
-        ids = np.asarray(state_to_id, dtype=np.int64)
-        if ids.size:
-            rel = mean[3:].reshape(-1, 2) - (x, y)
-            rows = np.empty((ids.size, 4))
-            rows[:, 0] = 1.0
-            # The robot frame, R(θ)ᵀ (m − t), scaled by the sensor range.
-            k = 1.0 / g.max_range
-            rows[:, 1:3] = np.dot(rel, ((c * k, -s * k), (s * k, c * k)))
-            trace = np.maximum(diag[3::2] + diag[4::2], 0.0)
-            rows[:, 3] = np.tanh(np.sqrt(trace) / POSITION_STD_SCALE)
-            feat[7:].reshape(-1, 4)[ids] = rows
-        # Only a diverged belief leaves the bounds (a NaN poisons the sum), so the full
-        # clip runs only then.
-        total = float(feat.sum())
-        inside = (
-            math.isfinite(total)
-            and self._low[0] <= feat[0] <= self._high[0]
-            and self._low[1] <= feat[1] <= self._high[1]
-            and (not ids.size or float(np.abs(rows[:, 1:3]).max()) <= self._high[8])
-        )
-        if inside:
-            return feat.astype(np.float32), False
-        out = np.minimum(np.maximum(np.nan_to_num(feat), self._low), self._high)
-        return out.astype(np.float32), True
+        # The robot frame, R(θ)ᵀ (m − t), scaled by the sensor range.
+        ck, sk = c / g.max_range, s / g.max_range
+        bound = self._rel_bound
+        inside = True
+        for i, lid in enumerate(state_to_id.tolist()):
+            row = 3 + 2 * i
+            rx, ry = ml[row] - x, ml[row + 1] - y
+            ex = rx * ck + ry * sk
+            ey = ry * ck - rx * sk
+            trace = dl[row] + dl[row + 1]
+            slot = 7 + 4 * lid
+            feat[slot : slot + 4] = (
+                1.0,
+                ex,
+                ey,
+                tanh(sqrt(0.0 if trace < 0.0 else trace) / POSITION_STD_SCALE),
+            )
+            if not (-bound <= ex <= bound and -bound <= ey <= bound):  # or NaN
+                inside = False
+        # Only a diverged belief leaves the bounds (a NaN or inf poisons the sum).
+        x_low, x_high, y_low, y_high = self._position_bounds
+        if (
+            inside
+            and math.isfinite(sum(feat))
+            and x_low <= feat[0] <= x_high
+            and y_low <= feat[1] <= y_high
+        ):
+            feat += tail
+            return np.array(feat, dtype=np.float32), False
+        out = np.minimum(np.maximum(np.nan_to_num(np.array(feat)), self._low), self._high)
+        return np.concatenate([out, tail]).astype(np.float32), True

@@ -71,25 +71,26 @@ def map_rmse(estimates, truths) -> float:
     return math.sqrt(float(np.vdot(diff, diff)) / len(diff))
 
 
-def log_det_psd(cov, floor: float = 0.0) -> float:
+def log_det_psd(cov, floor: float = 0.0, copy: bool = True) -> float:
     """log det(Σ + floor·I) of a symmetric PSD matrix Σ: every eigenvalue raised by
     ``floor``, which keeps the result finite for a singular Σ.
 
     Tries a Cholesky factorisation first (fast); falls back to eigenvalues (clamped at
     ``floor``, or the smallest positive double) when round-off leaves the matrix
-    slightly indefinite.
+    slightly indefinite. ``copy=False`` lets the floor be added to a float64 ``cov``
+    in place (a caller's scratch array).
     """
-    cov = np.array(cov, dtype=np.float64)  # a copy: the floor is added in place
+    cov = np.array(cov, dtype=np.float64, copy=copy or None)
     if cov.size == 0:
         return 0.0
     if floor > 0.0:
         cov.flat[:: cov.shape[0] + 1] += floor
     try:
         chol = np.linalg.cholesky(cov)
-        return 2.0 * float(np.log(chol.diagonal()).sum())
     except np.linalg.LinAlgError:
         eig = np.linalg.eigvalsh(cov)
         return float(np.sum(np.log(np.maximum(eig, max(floor, 1e-300)))))
+    return 2.0 * math.fsum(map(math.log, chol.diagonal().tolist()))
 
 
 def gaussian_entropy(cov, floor: float = 0.0) -> float:

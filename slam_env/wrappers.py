@@ -118,6 +118,12 @@ class EKFSLAMWrapper(gym.ObservationWrapper):
             max_range=cfg.sensor.max_range,
         )
         self._prior_var = landmark_prior_variance(width, height)
+        vx, vy = self._prior_var
+        # Per-step constants of the belief entropy.
+        self._prior_log_det = math.log(vx + ENTROPY_FLOOR) + math.log(vy + ENTROPY_FLOOR)
+        dim = 3 + 2 * base.n_landmark_slots
+        self._entropy_dim_term = dim * math.log(2.0 * math.pi * math.e)
+        self._floor_eye = ENTROPY_FLOOR * np.eye(dim)
         if observation == "full":
             self._encoding = FullEncoding(self._geometry)
         else:
@@ -150,6 +156,8 @@ class EKFSLAMWrapper(gym.ObservationWrapper):
         # Landmarks do not move: index the true map by ID once per episode.
         self._truth_by_id = np.full((self._geometry.max_landmarks, 2), np.nan)
         self._truth_by_id[info["landmark_ids"]] = info["landmark_positions"]
+        self._truth_flat = np.full(2 * self._geometry.max_landmarks, np.nan)
+        self._n_truth = 0
         self.filter.reset(initial_pose=info["pose"], initial_pose_cov=self._initial_pose_cov)
         self._consecutive_rejections = 0
         self._numerical_failure = False
@@ -158,7 +166,7 @@ class EKFSLAMWrapper(gym.ObservationWrapper):
 
     def step(self, action: Any) -> tuple[Any, SupportsFloat, bool, bool, dict[str, Any]]:
         raw, reward, terminated, truncated, info = self.env.step(action)
-        self.filter.predict(raw["odometry"].astype(np.float64))
+        self.filter.predict(raw["odometry"])
         self._correct(raw)
         obs, info = self._observe(raw, info)
         return obs, reward, terminated, truncated, info
@@ -166,18 +174,20 @@ class EKFSLAMWrapper(gym.ObservationWrapper):
     def observation(self, observation: Any) -> Any:
         """The belief encoding of the filter's current state (the raw observation has
         already been folded into the filter by ``reset``/``step``)."""
-        f = self.filter
-        obs, self._last_clipped = self._encoding.encode(f.mean, f.cov, f.state_to_id)
-        return self._with_passthrough(obs, observation)
+        obs, self._last_clipped = self._encode(*self.filter.belief_views(), observation)
+        return obs
 
-    def _with_passthrough(self, obs: Any, raw: dict[str, np.ndarray]) -> Any:
-        if not self._passthrough:
-            return obs
+    def _encode(
+        self, mean: np.ndarray, cov: np.ndarray, ids: np.ndarray, raw: dict[str, np.ndarray]
+    ) -> tuple[Any, bool]:
+        """The belief observation with the raw proximity readings passed through."""
         if self.observation_mode == "full":
+            obs, clipped = self._encoding.encode(mean, cov, ids)
             for key in self._passthrough:
                 obs[key] = raw[key].copy()
-            return obs
-        return np.concatenate([obs, *(raw[k] for k in self._passthrough)])
+            return obs, clipped
+        tail = [v for key in self._passthrough for v in raw[key].tolist()]
+        return self._encoding.encode(mean, cov, ids, tail)
 
     def belief_entropy(self, cov: np.ndarray | None = None) -> float:
         """Entropy (nats) of the belief over the pose and all ``max_landmarks`` slots:
@@ -185,13 +195,13 @@ class EKFSLAMWrapper(gym.ObservationWrapper):
         in its first two moments, so discovering a landmark lowers the entropy and the
         dimension never changes. It is computed for Σ + ``ENTROPY_FLOOR``·I.
         ``cov`` is the filter's covariance if already at hand (it is not modified)."""
-        cov = self.filter.cov if cov is None else cov
-        unseen = self._geometry.max_landmarks - (cov.shape[0] - 3) // 2
-        vx, vy = self._prior_var
-        prior = unseen * (math.log(vx + ENTROPY_FLOOR) + math.log(vy + ENTROPY_FLOOR))
-        dim = 3 + 2 * self._geometry.max_landmarks
-        log_det = metrics.log_det_psd(cov, ENTROPY_FLOOR) + prior
-        return 0.5 * (dim * math.log(2.0 * math.pi * math.e) + log_det)
+        cov = self.filter.belief_views()[1] if cov is None else cov
+        d = cov.shape[0]
+        unseen = self._geometry.max_landmarks - (d - 3) // 2
+        # Σ + floor·I into a fresh array (the floor's diagonal is laid out once).
+        shifted = np.add(cov, self._floor_eye[:d, :d])
+        log_det = metrics.log_det_psd(shifted, copy=False) + unseen * self._prior_log_det
+        return 0.5 * (self._entropy_dim_term + log_det)
 
     def belief_overlay(self, true_landmarks: Any = None) -> BeliefOverlay:
         f = self.filter
@@ -212,9 +222,9 @@ class EKFSLAMWrapper(gym.ObservationWrapper):
 
     # ------------------------------------------------------------------ helpers
     def _correct(self, raw: dict[str, np.ndarray]) -> None:
+        if not max(raw["mask"].tolist(), default=0.0) > 0.5:
+            return  # nothing detected (most steps): skip unpacking
         z, ids = unpack_detections(raw)
-        if not ids.size:
-            return
         try:
             result = self.filter.update(z, ids)
         except FloatingPointError:
@@ -231,27 +241,31 @@ class EKFSLAMWrapper(gym.ObservationWrapper):
     def _observe(
         self, raw: dict[str, np.ndarray], info: dict[str, Any]
     ) -> tuple[Any, dict[str, Any]]:
-        """The belief observation and the diagnostics, from one copy of the state."""
+        """The belief observation and the diagnostics, read off the live state."""
         f = self.filter
-        mean, cov, ids = f.mean, f.cov, f.state_to_id
-        obs, clipped = self._encoding.encode(mean, cov, ids)
-        obs = self._with_passthrough(obs, raw)
+        mean, cov, ids = f.belief_views()
+        obs, clipped = self._encode(mean, cov, ids, raw)
         x, y, th = mean[:3].tolist()
         tx, ty, tth = info["pose"].tolist()
         err = [x - tx, y - ty, wrap_angle(th - tth)]
-        if ids.size:
-            map_rmse = metrics.map_rmse(mean[3:].reshape(-1, 2), self._truth_by_id[ids])
+        n = ids.shape[0]
+        if n:
+            truth = self._truth_in_state_order(ids)
+            diff = np.subtract(mean[3:], truth)
+            map_rmse = math.sqrt(float(np.dot(diff, diff)) / n)
         else:
             map_rmse = math.nan
+        pose_cov = cov[:3, :3].tolist()
         info["pose_error"] = math.hypot(err[0], err[1])
         info["heading_error"] = abs(err[2])
         info["map_rmse"] = map_rmse
-        info["pose_nees"] = metrics.pose_nees_from_error(err, cov[:3, :3].tolist())
-        info["landmarks_known"] = int(ids.size)
-        info["rejected"] = int(f.n_rejected)
+        info["pose_nees"] = metrics.pose_nees_from_error(err, pose_cov)
+        info["landmarks_known"] = n
+        info["rejected"] = f.n_rejected
         info["entropy"] = self.belief_entropy(cov)
-        info["pose_std"] = math.sqrt(max(float(cov[0, 0] + cov[1, 1]), 0.0))
-        info["belief_clipped"] = bool(clipped)
+        position_var = pose_cov[0][0] + pose_cov[1][1]
+        info["pose_std"] = 0.0 if position_var < 0.0 else math.sqrt(position_var)
+        info["belief_clipped"] = clipped
         info["consecutive_rejections"] = self._consecutive_rejections
         info["diverged"] = bool(
             clipped
@@ -259,6 +273,16 @@ class EKFSLAMWrapper(gym.ObservationWrapper):
             or self._consecutive_rejections >= DIVERGENCE_REJECTIONS
         )
         return obs, info
+
+    def _truth_in_state_order(self, ids: np.ndarray) -> np.ndarray:
+        """The true positions of the landmarks in the state, flattened in state order
+        (the map error's reference), extended as landmarks join the state."""
+        n = ids.shape[0]
+        known = self._n_truth if n >= self._n_truth else 0  # 0: the filter was reset
+        if n > known:
+            self._truth_flat[2 * known : 2 * n] = self._truth_by_id[ids[known:]].ravel()
+            self._n_truth = n
+        return self._truth_flat[: 2 * n]
 
 
 REWARD_TERMS = ("information_gain", "pose_uncertainty", "collision", "step", "coverage")

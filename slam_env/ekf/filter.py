@@ -68,7 +68,8 @@ class Status(enum.IntEnum):
 CORRECTED = Status.CORRECTED
 INITIALISED = Status.INITIALISED
 REJECTED = Status.REJECTED
-_CORRECTED, _REJECTED = int(CORRECTED), int(REJECTED)  # plain ints for the hot loop
+# Plain ints for the hot loop.
+_CORRECTED, _INITIALISED, _REJECTED = int(CORRECTED), int(INITIALISED), int(REJECTED)
 
 
 @dataclass(frozen=True)
@@ -445,6 +446,16 @@ class EKFSLAM:
         d = 3 + 2 * self._n
         return self._P[:d, :d].copy()
 
+    def belief_views(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Read-only *views* of the live ``mean``, ``cov`` and ``state_to_id``, for a
+        caller that reads the belief every step (the gym wrapper) and need not pay
+        for copies. They are valid until the next ``predict``/``update``/``reset``."""
+        d = 3 + 2 * self._n
+        views = self._x[:d], self._P[:d, :d], self._slot_to_id[: self._n]
+        for view in views:
+            view.flags.writeable = False
+        return views
+
     @property
     def pose(self) -> np.ndarray:
         """(3,) the pose mean (a copy)."""
@@ -551,15 +562,19 @@ class EKFSLAM:
         (odometry) or ``B Σu Bᵀ`` (velocity). Landmarks do not move. O(n).
         """
         mm = self._mm
-        try:
-            arr = np.asarray(u, dtype=np.float64)
-        except (TypeError, ValueError) as exc:
-            raise TypeError(f"u must be an array of numbers: {exc}") from None
-        if arr.shape != (mm.control_dim,):
-            raise ValueError(
-                f"u must have shape ({mm.control_dim},) for the {mm.name} model, got {arr.shape}"
-            )
-        uv = arr.tolist()
+        if type(u) is np.ndarray and u.shape == (mm.control_dim,) and u.dtype.kind == "f":
+            uv = u.tolist()  # what a wrapper passes every step: no conversion needed
+        else:
+            try:
+                arr = np.asarray(u, dtype=np.float64)
+            except (TypeError, ValueError) as exc:
+                raise TypeError(f"u must be an array of numbers: {exc}") from None
+            if arr.shape != (mm.control_dim,):
+                raise ValueError(
+                    f"u must have shape ({mm.control_dim},) for the {mm.name} model, "
+                    f"got {arr.shape}"
+                )
+            uv = arr.tolist()
         if not all(map(math.isfinite, uv)):
             raise ValueError(f"u must be finite, got {uv}")
         x, P = self._x, self._P
@@ -598,11 +613,10 @@ class EKFSLAM:
         if one is set; then new landmarks are initialised from the corrected belief,
         in the given order (seed 000 §2.2). Returns an :class:`UpdateResult`.
         """
-        z, id_list = self._check_observations(z, ids)
+        z, zl, id_list = self._check_observations(z, ids)
         k = len(id_list)
-        status = np.empty(k, dtype=np.int8)
-        nis = np.empty(k)
-        nis.fill(np.nan)
+        status = [_INITIALISED] * k  # the known ones are overwritten
+        nis = [math.nan] * k
         slots = self._id_to_slot
         known: list[int] = []
         new: list[int] = []
@@ -614,7 +628,7 @@ class EKFSLAM:
                 if self._correction == "batch":
                     self._correct_batch(z, id_list, known, status, nis)
                 else:
-                    self._correct_sequential(z.tolist(), id_list, known, status, nis)
+                    self._correct_sequential(zl, id_list, known, status, nis)
             except FloatingPointError as exc:
                 # Only a covariance that lost definiteness gets here (S ⪰ Q ≻ 0 when
                 # P ⪰ 0). P is written last, so restoring the mean undoes the call.
@@ -625,10 +639,16 @@ class EKFSLAM:
                 ) from None
         if new:
             self._initialise(z[new], [id_list[i] for i in new])
-            status[new] = Status.INITIALISED
-        return UpdateResult(np.array(id_list, dtype=np.int64).reshape(k), status, nis)
+        return UpdateResult(
+            np.array(id_list, dtype=np.int64).reshape(k),
+            np.array(status, dtype=np.int8),
+            np.array(nis, dtype=np.float64),
+        )
 
-    def _check_observations(self, z: Any, ids: Any) -> tuple[np.ndarray, list[int]]:
+    def _check_observations(
+        self, z: Any, ids: Any
+    ) -> tuple[np.ndarray, list[list[float]], list[int]]:
+        """z as a (k, 2) float64 array and as nested lists, the IDs as a list."""
         try:
             z = np.asarray(z, dtype=np.float64)
         except (TypeError, ValueError) as exc:
@@ -642,9 +662,10 @@ class EKFSLAM:
             )
         if ids_arr.dtype.kind not in "iu" and ids_arr.size:
             raise TypeError(f"ids must be integers, got dtype {ids_arr.dtype}")
-        if not np.isfinite(z).all():
-            bad = int(np.flatnonzero(~np.isfinite(z).all(axis=1))[0])
-            raise ValueError(f"z must be finite; row {bad} is {z[bad].tolist()}")
+        zl = z.tolist()
+        for row, (a, b) in enumerate(zl):
+            if not (math.isfinite(a) and math.isfinite(b)):
+                raise ValueError(f"z must be finite; row {row} is {[a, b]}")
         id_list = ids_arr.tolist()
         for lid in id_list:
             if lid < 0:
@@ -655,7 +676,7 @@ class EKFSLAM:
             seen: set[int] = set()
             dup = next(lid for lid in id_list if lid in seen or seen.add(lid))
             raise ValueError(f"duplicate landmark id {dup} in one update")
-        return z, id_list
+        return z, zl, id_list
 
     def _grow_factors(self, k: int) -> None:
         """Room for the Joseph factors of k corrections in one update (2 rows each)
@@ -687,8 +708,8 @@ class EKFSLAM:
         zl: list[list[float]],
         id_list: list[int],
         known: list[int],
-        status: np.ndarray,
-        nis: np.ndarray,
+        status: list[int],
+        nis: list[float],
     ) -> None:
         """Sequential EKF corrections, one observation at a time, each re-linearised
         at the mean corrected by the ones before it.
@@ -815,8 +836,8 @@ class EKFSLAM:
         z: np.ndarray,
         id_list: list[int],
         known: list[int],
-        status: np.ndarray,
-        nis: np.ndarray,
+        status: list[int],
+        nis: list[float],
     ) -> None:
         """Batch EKF correction: all known observations linearised at the same mean,
         each gated on its own 2×2 block of S, the accepted ones stacked (H: 2k×d
@@ -895,7 +916,8 @@ class EKFSLAM:
         x[:d] += np.dot(np.dot(G, np.ravel(nus)), Ct)  # x += K ν, K = C G
         x[2] = wrap_angle(float(x[2]))
         self._apply_joseph(np.dot(np.dot(V.T, Li), Ct))
-        status[obs] = _CORRECTED
+        for i in obs:
+            status[i] = _CORRECTED
 
     def _initialise(self, z: np.ndarray, new_ids: list[int]) -> None:
         """Append new landmarks from the inverse model (seed 000 §2.2).
