@@ -62,6 +62,21 @@ def test_egocentric_features_follow_the_documented_layout():
     np.testing.assert_allclose(obs, expected, rtol=1e-6, atol=1e-6)
 
 
+def test_egocentric_tail_is_appended_as_it_is():
+    rng = np.random.default_rng(3)
+    mean, cov, ids = _belief(rng, [5, 0])
+    enc = EgocentricEncoding(GEOMETRY)
+    plain, _ = enc.encode(mean, cov, ids)
+    tail = [0.25, 1.0, 0.0]
+    obs, clipped = enc.encode(mean, cov, ids, tail)
+    assert not clipped and obs.dtype == np.float32
+    np.testing.assert_array_equal(obs, np.concatenate([plain, np.float32(tail)]))
+    mean[3] = 1e9  # a clipped belief keeps its tail too
+    obs, clipped = enc.encode(mean, cov, ids, tail)
+    assert clipped and obs.shape == (plain.size + 3,)
+    np.testing.assert_array_equal(obs[-3:], np.float32(tail))
+
+
 def test_egocentric_never_hands_out_nan_and_reports_it():
     rng = np.random.default_rng(1)
     mean, cov, ids = _belief(rng, [0, 2])
@@ -119,6 +134,15 @@ def test_entropy_and_log_det():
     assert metrics.log_det_psd(singular, floor=1e-4) == pytest.approx(
         math.log(1.0 + 1e-4) + math.log(1e-4)
     )
+
+
+def test_log_det_psd_without_a_copy_raises_the_callers_array():
+    cov = np.diag([1.0, 4.0, 0.0])
+    expected = metrics.log_det_psd(cov, floor=1e-4)
+    scratch = cov.copy()
+    assert metrics.log_det_psd(scratch, floor=1e-4, copy=False) == pytest.approx(expected)
+    np.testing.assert_array_equal(scratch, cov + 1e-4 * np.eye(3))  # in place
+    assert metrics.log_det_psd(cov, floor=1e-4) == expected  # the default copies
 
 
 def test_map_rmse():

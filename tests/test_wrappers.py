@@ -12,6 +12,7 @@ from gymnasium.utils.env_checker import check_env as gym_check_env
 from stable_baselines3.common.env_checker import check_env as sb3_check_env
 
 import slam_env
+from slam_env import metrics
 from slam_env.belief import slot_indices, unpack_full_belief
 from slam_env.ekf import EKFSLAM
 from slam_env.env import unpack_detections
@@ -112,6 +113,33 @@ def test_wrapper_belief_equals_the_filter_run_by_hand(options):
     # Unknown slots are empty.
     unknown = np.setdiff1d(np.arange(len(mean)), idx)
     assert not mean[unknown].any() and not cov[unknown].any()
+
+
+def test_belief_diagnostics_match_the_metrics_by_hand():
+    env = gym.make(ENV_ID, observation="full")
+    _, info = env.reset(seed=3)
+    truth = dict(zip(info["landmark_ids"].tolist(), info["landmark_positions"], strict=True))
+    f = env.get_wrapper_attr("filter")
+    for step, action in enumerate(_smooth_actions(np.random.default_rng(3), 200)):
+        if step == 100:
+            # The map error's reference follows the filter even when it restarts
+            # (and then finds the landmarks in another order).
+            before = f.state_to_id.tolist()
+            f.reset(initial_pose=info["pose"])
+        _, _, _, _, info = env.step(action)
+        ids = f.state_to_id
+        if ids.size:
+            expected = metrics.map_rmse(
+                f.landmark_means(), np.array([truth[i] for i in ids.tolist()])
+            )
+            assert info["map_rmse"] == pytest.approx(expected, rel=1e-12)
+        else:
+            assert math.isnan(info["map_rmse"])
+        err = metrics.pose_error(f.pose, info["pose"])
+        assert info["pose_nees"] == pytest.approx(metrics.nees(err, f.pose_cov), rel=1e-9)
+        assert info["pose_std"] == pytest.approx(math.sqrt(np.trace(f.pose_cov[:2, :2])))
+        assert info["landmarks_known"] == ids.size
+    assert f.state_to_id.tolist()[: len(before)] != before
 
 
 def _smooth_actions(rng: np.random.Generator, n: int) -> list[np.ndarray]:

@@ -395,6 +395,33 @@ def test_the_heading_stays_wrapped():
     assert -math.pi <= f.pose[2] < math.pi
 
 
+def test_belief_views_are_the_live_belief_read_only():
+    f = make()
+    f.predict(control("odometry"))
+    observe(f, f.pose, LANDMARKS, [3, 1])
+    mean, cov, ids = f.belief_views()
+    np.testing.assert_array_equal(mean, f.mean)
+    np.testing.assert_array_equal(cov, f.cov)
+    np.testing.assert_array_equal(ids, f.state_to_id)
+    for view in (mean, cov, ids):
+        with pytest.raises(ValueError, match="read-only"):
+            view[0] = 0
+    before = f.mean
+    f.predict(control("odometry"))  # the views follow the filter (and stay its size)
+    assert not np.array_equal(mean, before) and np.array_equal(mean, f.mean)
+
+
+def test_update_takes_lists_and_arrays_alike():
+    a, b = make(), make()
+    z = MEASUREMENT_MODELS["range_bearing"].h(a.pose, LANDMARKS[[0, 2]])
+    ra = a.update(z, np.array([0, 2]))
+    rb = b.update(z.tolist(), [0, 2])
+    np.testing.assert_array_equal(a.mean, b.mean)
+    for x, y in zip((ra.ids, ra.status, ra.nis), (rb.ids, rb.status, rb.nis), strict=True):
+        np.testing.assert_array_equal(x, y)
+    assert rb.ids.dtype == np.int64 and rb.status.dtype == np.int8
+
+
 # --------------------------------------------------------------------------- purity
 
 
