@@ -117,8 +117,7 @@ class EKFSLAMWrapper(gym.ObservationWrapper):
             height=height,
             max_range=cfg.sensor.max_range,
         )
-        self._prior_var = landmark_prior_variance(width, height)
-        vx, vy = self._prior_var
+        vx, vy = landmark_prior_variance(width, height)
         # Per-step constants of the belief entropy.
         self._prior_log_det = math.log(vx + ENTROPY_FLOOR) + math.log(vy + ENTROPY_FLOOR)
         dim = 3 + 2 * base.n_landmark_slots
@@ -223,7 +222,7 @@ class EKFSLAMWrapper(gym.ObservationWrapper):
     # ------------------------------------------------------------------ helpers
     def _correct(self, raw: dict[str, np.ndarray]) -> None:
         if not max(raw["mask"].tolist(), default=0.0) > 0.5:
-            return  # nothing detected (most steps): skip unpacking
+            return  # nothing detected: no unpacking, no update
         z, ids = unpack_detections(raw)
         try:
             result = self.filter.update(z, ids)
