@@ -33,8 +33,9 @@ class CoverageGrid:
     the last ring unbounded), ring-major: feature ``r·sectors + k``. A region that
     holds no arena cell has share 0: nothing left to see there.
 
-    Footprints and region maps are tabulated per heading bin once, so that a step
-    costs a few array operations on the grid.
+    Footprints and region maps are tabulated per heading bin once, and the cell count
+    per region is cached per heading bin and robot cell, so that a step costs a few
+    array operations on the grid.
 
     Args:
         width, height: m, the arena.
@@ -89,7 +90,11 @@ class CoverageGrid:
         turned = (bearing[None] - headings[:, None, None] + math.pi / sectors) % TWO_PI
         sector = np.minimum((turned * (sectors / TWO_PI)).astype(np.intp), sectors - 1)
         ring = np.searchsorted(edges, dist, side="right")
-        self._regions = (ring * sectors + sector).astype(np.min_scalar_type(self.n_features))
+        # Coded 2·region + 1, so that less the swept flag (0/1) each (region, swept) pair
+        # has a code, the unswept cells' odd: one bincount counts both.
+        self._n_codes = 2 * self.n_features
+        codes = 2 * (ring * sectors + sector) + 1
+        self._codes = codes.astype(np.min_scalar_type(self._n_codes - 1))
 
         # The swept cells live inside a border of always-swept cells as wide as the
         # footprint, so a footprint never needs clipping and never counts the border.
@@ -104,9 +109,38 @@ class CoverageGrid:
         off = (bearing[near][None] - headings[:, None] + math.pi) % TWO_PI - math.pi
         # The robot's own cell is always seen, whatever its offset's nominal bearing.
         in_view = (np.abs(off) <= 0.5 * fov) | ((foot_di == 0) & (foot_dj == 0))[None]
-        flat = foot_di * self._stride + foot_dj
+        # Measured from the corner of the footprint's (2p+1)² window rather than from the
+        # robot's cell, so that they index a flat view of the padded grid that starts at
+        # that corner: offsets never negative, no per-step index arithmetic.
+        flat = (foot_di + p) * self._stride + foot_dj + p
         self._footprints = [flat[row] for row in in_view]
+        self._setup_scratch()
         self.reset()
+
+    # Views, scratch buffers and caches: rebuilt on unpickling, never pickled (a view
+    # would come back as a copy, detached from the padded grid).
+    _TRANSIENT = ("_flat", "_swept_u8", "_buf", "_buf_flat", "_divisors", "_out", "_ratios")
+
+    def _setup_scratch(self) -> None:
+        self._flat = self._padded.reshape(-1)  # a view: the padded grid is contiguous
+        self._swept_u8 = self.swept.view(np.uint8)  # bool's bytes are 0/1
+        self._buf = np.empty((self.ny, self.nx), dtype=np.intp)  # the codes, bincount's input
+        self._buf_flat = self._buf.reshape(-1)
+        # Per (row, column, heading bin): max(1, arena cells per code pair). They depend
+        # on nothing else, so an entry never goes stale, and there are at most
+        # nx·ny·heading_bins of them.
+        self._divisors: dict[tuple[int, int, int], np.ndarray] = {}
+        # [swept fraction, then per code the share of its region's cells]: every other
+        # entry from the first is [swept fraction, features...].
+        self._out = np.empty(1 + self._n_codes)
+        self._ratios = self._out[1:]
+
+    def __getstate__(self) -> dict[str, Any]:
+        return {k: v for k, v in self.__dict__.items() if k not in self._TRANSIENT}
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        self.__dict__.update(state)
+        self._setup_scratch()
 
     @property
     def swept(self) -> np.ndarray:
@@ -133,39 +167,59 @@ class CoverageGrid:
     def cell_of(self, x: float, y: float) -> tuple[int, int]:
         """(row, column) of the cell holding (x, y), clamped into the grid (a diverged
         estimate outside the arena sweeps from the nearest border cell)."""
-        i = math.floor(y / self.cell) if math.isfinite(y) else 0
-        j = math.floor(x / self.cell) if math.isfinite(x) else 0
-        return min(max(i, 0), self.ny - 1), min(max(j, 0), self.nx - 1)
+        return self._locate(x, y, 0.0)[:2]
 
     def heading_bin(self, theta: float) -> int:
         """The tabulated direction nearest to ``theta``."""
-        if not math.isfinite(theta):
-            return 0
-        return round(theta % TWO_PI * (self.heading_bins / TWO_PI)) % self.heading_bins
+        return self._locate(0.0, 0.0, theta)[2]
+
+    def _locate(self, x: float, y: float, theta: float) -> tuple[int, int, int]:
+        """:meth:`cell_of` and :meth:`heading_bin` at once (one call per step)."""
+        i = math.floor(y / self.cell) if math.isfinite(y) else 0
+        j = math.floor(x / self.cell) if math.isfinite(x) else 0
+        n = self.heading_bins
+        b = round(theta % TWO_PI * (n / TWO_PI)) % n if math.isfinite(theta) else 0
+        return min(max(i, 0), self.ny - 1), min(max(j, 0), self.nx - 1), b
 
     def sweep(self, x: float, y: float, theta: float) -> int:
         """Mark the footprint seen from pose (x, y, θ) swept; return the new cells."""
-        i, j = self.cell_of(x, y)
-        base = (i + self._pad) * self._stride + j + self._pad
-        cells = self._footprints[self.heading_bin(theta)] + base
-        flat = self._padded.reshape(-1)  # a view: the padded grid is contiguous
-        new = cells.size - int(np.count_nonzero(flat[cells]))
-        flat[cells] = True
+        return self._sweep_at(*self._locate(x, y, theta))
+
+    def _sweep_at(self, i: int, j: int, b: int) -> int:
+        cells = self._footprints[b]
+        # The flat padded grid from the corner of the footprint's window, at padded
+        # (row, column) (i + p - p, j + p - p).
+        window = self._flat[i * self._stride + j :]
+        new = cells.size - int(np.count_nonzero(window.take(cells)))
+        window.put(cells, True)
         self._n_swept += new
         return new
 
     def features(self, x: float, y: float, theta: float) -> np.ndarray:
         """(n_features,) float64 in [0, 1]: the unswept share per sector and ring
         around pose (x, y, θ) (see the class docstring)."""
-        i, j = self.cell_of(x, y)
-        regions = self._regions[
-            self.heading_bin(theta),
-            self.ny - 1 - i : 2 * self.ny - 1 - i,
-            self.nx - 1 - j : 2 * self.nx - 1 - j,
-        ].ravel()
-        total = np.bincount(regions, minlength=self.n_features)
-        unswept = np.bincount(regions, weights=~self.swept.ravel(), minlength=self.n_features)
-        return unswept / np.maximum(total, 1)
+        return self._coverage_at(*self._locate(x, y, theta))[1:].copy()
+
+    def _coverage_at(self, i: int, j: int, b: int) -> np.ndarray:
+        """(1 + n_features,) float64: the swept fraction, then the features at cell
+        (i, j), heading bin b. A view of scratch that the next call overwrites."""
+        ny, nx = self.ny, self.nx
+        np.subtract(
+            self._codes[b, ny - 1 - i : 2 * ny - 1 - i, nx - 1 - j : 2 * nx - 1 - j],
+            self._swept_u8,
+            out=self._buf,
+        )
+        counts = np.bincount(self._buf_flat, minlength=self._n_codes)
+        key = (i, j, b)
+        divisor = self._divisors.get(key)
+        if divisor is None:
+            total = np.maximum(counts[0::2] + counts[1::2], 1)
+            divisor = self._divisors[key] = np.repeat(total, 2).astype(np.float64)
+        out = self._out
+        out[0] = self._n_swept / (nx * ny)
+        # float64 counts / float64 totals, as ever: the shares are bit-identical.
+        np.divide(counts, divisor, out=self._ratios)
+        return out[0::2]
 
 
 class CoverageWrapper(gym.ObservationWrapper):
@@ -232,22 +286,25 @@ class CoverageWrapper(gym.ObservationWrapper):
 
     def observation(self, observation: Any) -> Any:
         """``observation`` with the current coverage features (no sweep)."""
-        return self._attach(observation, self._features(*self._filter.mean[:3].tolist()))
+        grid = self.grid
+        return self._attach(observation, grid._coverage_at(*grid._locate(*self._pose())))
 
     def _observe(self, obs: Any, info: dict[str, Any]) -> tuple[Any, dict[str, Any]]:
-        x, y, theta = self._filter.mean[:3].tolist()
-        self.grid.sweep(x, y, theta)
-        info["swept_fraction"] = self.grid.swept_fraction
-        return self._attach(obs, self._features(x, y, theta)), info
+        grid = self.grid
+        i, j, b = grid._locate(*self._pose())
+        grid._sweep_at(i, j, b)
+        info["swept_fraction"] = grid.swept_fraction
+        return self._attach(obs, grid._coverage_at(i, j, b)), info
 
-    def _features(self, x: float, y: float, theta: float) -> np.ndarray:
-        features = np.empty(1 + self.grid.n_features, dtype=np.float32)
-        features[0] = self.grid.swept_fraction
-        features[1:] = self.grid.features(x, y, theta)
-        return features
+    def _pose(self) -> list[float]:
+        # The pose alone: the filter's mean would copy the whole state.
+        return self._filter.pose.tolist()
 
     @staticmethod
-    def _attach(obs: Any, features: np.ndarray) -> Any:
+    def _attach(obs: Any, coverage: np.ndarray) -> Any:
+        """``obs`` with the float64 ``coverage`` features rounded to float32."""
         if isinstance(obs, dict):
-            return {**obs, "coverage": features}
-        return np.concatenate([obs, features])
+            return {**obs, "coverage": coverage.astype(np.float32)}
+        if isinstance(obs, np.ndarray) and obs.dtype == np.float32:
+            return np.concatenate((obs, coverage), dtype=np.float32)  # rounds on the way
+        return np.concatenate([obs, coverage.astype(np.float32)])
