@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import math
-from functools import partial
 from typing import Any, SupportsFloat
 
 import gymnasium as gym
@@ -137,6 +136,8 @@ class LandmarksEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
             self.arena_size = (cfg.world.width, cfg.world.height)
         self.max_detections = cfg.sensor.max_detections or self.n_landmarks
 
+        self._max_speed = cfg.robot.max_speed  # m/s at action 1.0
+        self._max_turn_rate = cfg.robot.max_turn_rate  # rad/s at action 1.0
         self.sensor = LandmarkSensor(cfg.sensor)
         self._faults_on = cfg.faults.any
         self.odometry = OdometrySensor(cfg.odometry)
@@ -229,8 +230,12 @@ class LandmarksEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
             validated=True,
         )
         self._landmark_positions = self._world.landmark_positions
+        # The sensor's form of the same positions (a read-only view, x + i·y).
+        self._landmark_points = LandmarkSensor._as_points(self._landmark_positions)
         self._landmark_ids = self._world.landmark_ids
         self._landmark_id_list = self._landmark_ids.tolist()
+        # Row order is ID order (the usual case): the sensor need not sort its finds.
+        self._ids_ascending = self._landmark_id_list == sorted(self._landmark_id_list)
         self._seen[:] = False
         self._last_collision = False
         self.belief_overlay = None
@@ -239,7 +244,7 @@ class LandmarksEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         if self._renderer is not None:
             self._renderer.set_layout(layout)
 
-        _, det_ids, z = self._sense(pose)
+        _, det_ids, z = self._sense(pose, self.np_random)
         self._mark_seen(det_ids)
         zero_control = (0.0,) * self.odometry.dim
         obs = self._get_obs(zero_control, det_ids, z)
@@ -257,36 +262,35 @@ class LandmarksEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
     ) -> tuple[dict[str, np.ndarray], SupportsFloat, bool, bool, dict[str, Any]]:
         if self._closed:
             raise RuntimeError("step() called on a closed LandmarksEnv; make a new env")
-        if self._world is None:
+        world = self._world
+        if world is None:
             raise ResetNeeded("call reset() before step()")
         speed_frac, turn_frac = parse_action(action, self.action_space)
         cfg = self.config
+        rng = self.np_random
 
         # Simulate: the physics runs several substeps per env step.
-        pose0 = self._world.pose
-        collided = self._world.step(
-            speed_frac * cfg.robot.max_speed, turn_frac * cfg.robot.max_turn_rate
-        )
-        pose1 = self._world.pose
+        pose0 = world.pose
+        collided = world.step(speed_frac * self._max_speed, turn_frac * self._max_turn_rate)
+        pose1 = world.pose
         self._last_collision = collided
 
         # Observe: odometry of the motion just made, then the landmark sensor. The
         # private sensor methods skip the checks of the public ones (the env's inputs
         # are well-formed by construction) and work on plain floats.
-        true_control = self.odometry._true_control(pose0, pose1)
-        control = self.odometry._perturb(true_control, self.np_random)
+        odometry = self.odometry
+        true_control = odometry._true_control(pose0, pose1)
+        control = odometry._perturb(true_control, rng)
         kidnapped = False
         if self._faults_on:
-            control = corrupt_odometry(control, cfg.faults, self.np_random)
+            control = corrupt_odometry(control, cfg.faults, rng)
             kidnapped = self._maybe_kidnap()
-            pose1 = self._world.pose
+            pose1 = world.pose
         if self.render_mode is not None:
             self._trail.append((pose1[0], pose1[1]))
-        _, det_ids, z = self._sense(pose1)
+        _, det_ids, z = self._sense(pose1, rng)
         if self._faults_on:
-            det_ids, z = corrupt_scan(
-                det_ids, z, self._seen, cfg.faults, cfg.sensor, self.np_random
-            )
+            det_ids, z = corrupt_scan(det_ids, z, self._seen, cfg.faults, cfg.sensor, rng)
         n_new = self._mark_seen(det_ids)
 
         # Reward terms, then episode end.
@@ -346,7 +350,7 @@ class LandmarksEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         return self.world.layout
 
     def _sense(
-        self, pose: tuple[float, float, float]
+        self, pose: tuple[float, float, float], rng: np.random.Generator
     ) -> tuple[list[int], list[int], list[tuple[float, float]]]:
         """The scan from ``pose``: the detections' rows, IDs and z, sorted by ID, as
         Python lists (what the observation is built from; no intermediate arrays)."""
@@ -355,10 +359,11 @@ class LandmarksEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
             x,
             y,
             theta,
-            self._landmark_positions,
+            self._landmark_points,
             self._landmark_id_list,
-            self.np_random,
-            partial(self._world._landmark_visible_from, x, y),
+            rng,
+            self._world._landmark_visible_from,
+            ids_ascending=self._ids_ascending,
         )
         self._last_scan = scan
         return scan

@@ -9,6 +9,8 @@ import numpy as np
 TWO_PI = 2.0 * math.pi
 
 
+_HALF_PI = math.pi / 2.0
+
 # The largest float below π: (a + π) % 2π − π rounds to +π for some a just below −π.
 _BELOW_PI = math.nextafter(math.pi, 0.0)
 
@@ -74,14 +76,16 @@ def odometry_from_poses(
     x1, y1, th1 = pose1
     dx, dy = x1 - x0, y1 - y0
     trans = math.hypot(dx, dy)
+    # wrap_float(float(a)) is wrap_angle(a) for a scalar, without its type dispatch
+    # (this runs at every env step).
     if trans < min_translation:
         along = dx * math.cos(th0) + dy * math.sin(th0)
-        return 0.0, along, wrap_angle(th1 - th0)
-    rot1 = wrap_angle(math.atan2(dy, dx) - th0)
-    if abs(rot1) > math.pi / 2.0:
-        rot1 = wrap_angle(rot1 - math.pi)
+        return 0.0, along, wrap_float(float(th1 - th0))
+    rot1 = wrap_float(float(math.atan2(dy, dx) - th0))
+    if abs(rot1) > _HALF_PI:
+        rot1 = wrap_float(rot1 - math.pi)
         trans = -trans
-    rot2 = wrap_angle(th1 - th0 - rot1)
+    rot2 = wrap_float(float(th1 - th0 - rot1))
     return rot1, trans, rot2
 
 

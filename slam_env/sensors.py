@@ -27,11 +27,12 @@ import numpy as np
 from slam_env.config import OdometryConfig, SensorConfig
 from slam_env.ekf.models import (
     odometry_action_cov,
-    odometry_action_variances,
     velocity_control_cov,
     velocity_control_variances,
 )
 from slam_env.geometry import (
+    _BELOW_PI,
+    TWO_PI,
     odometry_from_poses,
     velocity_from_poses,
     wrap_float,
@@ -42,6 +43,8 @@ __all__ = ["Detections", "LandmarkSensor", "LineOfSight", "OdometrySensor"]
 LineOfSight = Callable[[np.ndarray, np.ndarray, int], bool]
 """``line_of_sight(origin (2,), target (2,), landmark_index) -> True`` when the view
 from ``origin`` to ``target`` is clear. Both arrays are read-only views."""
+
+_PI = math.pi
 
 _EMPTY_Z = np.zeros((0, 2), dtype=np.float64)
 _EMPTY_I = np.zeros(0, dtype=np.int64)
@@ -130,38 +133,39 @@ class LandmarkSensor:
         return np.diag(self._std * self._std)
 
     def _in_view(
-        self, x: float, y: float, theta: float, positions: np.ndarray
-    ) -> tuple[np.ndarray, np.ndarray, list[tuple[int, float, float]]]:
+        self, x: float, y: float, theta: float, points: np.ndarray
+    ) -> tuple[np.ndarray, list[tuple[int, float, float]]]:
         """Step 1 of the class docstring, from the pose (x, y, θ).
 
-        Returns the robot-frame coordinates (d_x, d_y) = R(θ)ᵀ(m − t) of every landmark
-        as two (N,) arrays, and ``(row, r, φ)`` of those within range and field of
-        view, in ascending row order, with the true range r = |d| and bearing
-        φ = atan2(d_y, d_x) ∈ [−π, π].
+        ``points`` are the N landmark positions as complex numbers ``mx + i·my``
+        ((N,) complex128, see :meth:`_as_points`). Returns the robot-frame coordinates
+        d = R(θ)ᵀ(m − t) of every landmark as an (N,) complex array ``d_x + i·d_y``, and
+        ``(row, r, φ)`` of those within range and field of view, in ascending row
+        order, with the true range r = |d| and bearing φ = atan2(d_y, d_x) ∈ [−π, π].
         φ computed in the robot frame equals the seed's wrap(atan2(my − y, mx − x) − θ)
         without the cancellation of subtracting θ.
 
         A numpy call costs about a microsecond whatever its size, so for tens of
-        landmarks the number of calls matters more than the arithmetic: r and φ are
-        computed vectorised, then the two tests run on Python floats. d, r and φ stay
-        numpy operations because the seeded stream depends on their last bits (the
-        matmul may fuse multiply-adds, and ``math.hypot`` rounds unlike ``np.hypot``).
+        landmarks the number of calls matters more than the arithmetic. As complex
+        numbers the rotation and the offset are one call each: m·e^(−iθ) − t·e^(−iθ),
+        i.e. ``d_x = mx·c + my·s − (x·c + y·s)``, ``d_y = my·c − mx·s − (y·c − x·s)``.
+        r and φ are then computed vectorised on views of d's two parts, and the two
+        tests run on Python floats. d, r and φ stay numpy operations because the seeded
+        stream depends on their last bits (``math.hypot`` rounds unlike ``np.hypot``).
         """
-        c, s = math.cos(theta), math.sin(theta)
-        # Row-wise R(θ)ᵀ(m − t) = m·R(θ) − t·R(θ): one small matmul (R(θ) as
-        # geometry.rotation builds it), then the offset t·R(θ), subtracted column by
-        # column (a scalar operand is the cheapest).
-        d = np.dot(positions, np.array(((c, -s), (s, c))))
-        dx = d[:, 0] - (c * x + s * y)
-        dy = d[:, 1] - (c * y - s * x)
+        rot = complex(math.cos(theta), -math.sin(theta))
+        d = points * rot
+        d -= complex(x, y) * rot  # in place: no second temporary
+        dx, dy = d.real, d.imag  # views
+        # np.hypot, not np.abs(d): numpy's complex abs rounds differently (less exactly).
         r = np.hypot(dx, dy).tolist()
         phi = np.arctan2(dy, dx).tolist()
         max_range = self.max_range
         rows = [i for i, ri in enumerate(r) if ri <= max_range]
         if self._all_around:
-            return dx, dy, [(i, r[i], phi[i]) for i in rows]
+            return d, [(i, r[i], phi[i]) for i in rows]
         half_fov = self._half_fov
-        return dx, dy, [(i, r[i], phi[i]) for i in rows if abs(phi[i]) <= half_fov]
+        return d, [(i, r[i], phi[i]) for i in rows if -half_fov <= phi[i] <= half_fov]
 
     @staticmethod
     def _as_positions(positions) -> np.ndarray:
@@ -170,12 +174,19 @@ class LandmarkSensor:
             raise ValueError(f"positions must have shape (N, 2), got {positions.shape}")
         return positions
 
+    @staticmethod
+    def _as_points(positions: np.ndarray) -> np.ndarray:
+        """(N, 2) float64 positions as the (N,) complex128 ``x + i·y`` that
+        :meth:`_scan` takes: a view of the same memory when ``positions`` is
+        C-contiguous (a copy otherwise), so the values are exactly the same."""
+        return np.ascontiguousarray(positions).view(np.complex128).reshape(-1)
+
     def candidates(self, pose, positions) -> np.ndarray:
         """Indices (ascending, int64) of the landmarks within ``max_range`` and the
         field of view of ``pose``, before occlusion and detection probability."""
         positions = self._as_positions(positions)
         x, y, theta = float(pose[0]), float(pose[1]), float(pose[2])
-        found = self._in_view(x, y, theta, positions)[2]
+        found = self._in_view(x, y, theta, self._as_points(positions))[1]
         return np.array([f[0] for f in found], dtype=np.int64)
 
     def sense(
@@ -212,10 +223,11 @@ class LandmarkSensor:
             view = positions.view()
             view.flags.writeable = False
 
-            def visible(row: int) -> bool:
+            def visible(_x: float, _y: float, row: int) -> bool:
                 return line_of_sight(origin, view[row], row)
 
-        rows, _, z = self._scan(x, y, theta, positions, ids.tolist(), rng, visible)
+        points = self._as_points(positions)
+        rows, _, z = self._scan(x, y, theta, points, ids.tolist(), rng, visible)
         if not rows:
             return Detections(_EMPTY_Z.copy(), _EMPTY_I.copy(), _EMPTY_I.copy())
         index = np.array(rows, dtype=np.int64)
@@ -226,22 +238,28 @@ class LandmarkSensor:
         x: float,
         y: float,
         theta: float,
-        positions: np.ndarray,
+        points: np.ndarray,
         ids: Sequence,
         rng: np.random.Generator,
-        visible: Callable[[int], bool] | None,
+        visible: Callable[[float, float, int], bool] | None,
+        *,
+        ids_ascending: bool = False,
     ) -> tuple[list[int], list, list[tuple[float, float]]]:
         """:meth:`sense` without its input checks and without building arrays, for a
         caller whose inputs are already canonical (the env, every step): the pose as
-        Python floats, ``positions`` (N, 2) float64, ``ids`` the N landmark IDs as a
-        Python list, and ``visible(row)`` the occlusion test of one row (``None``:
-        nothing occludes). Same steps, same draws.
+        Python floats, ``points`` the N landmark positions as (N,) complex128
+        ``x + i·y`` (:meth:`_as_points`), ``ids`` the N landmark IDs as a Python list,
+        and ``visible(x, y, row)`` the occlusion test of one row from the pose's
+        position (``None``: nothing occludes; the env passes
+        ``World._landmark_visible_from`` itself). ``ids_ascending=True`` promises
+        that ``ids`` never decrease along the rows, so that row order is already ID
+        order (the env checks it once per world). Same steps, same draws.
 
         Returns the detections as three lists sorted by ID: their rows in
-        ``positions``, their IDs, and their ``z`` as tuples of Python floats.
+        ``points``, their IDs, and their ``z`` as tuples of Python floats.
         """
-        dx, dy, found = self._in_view(x, y, theta, positions)  # (row, r, φ) ascending row
-        if len(found) > 1:
+        d, found = self._in_view(x, y, theta, points)  # (row, r, φ) ascending row
+        if len(found) > 1 and not ids_ascending:
             listed = [ids[f[0]] for f in found]
             if listed != sorted(listed):
                 # Python's sort is stable, like argsort(kind="stable"): equal IDs keep
@@ -252,7 +270,7 @@ class LandmarkSensor:
             draws = rng.random(len(found)).tolist()
             found = [f for f, u in zip(found, draws, strict=True) if u < self.detection_prob]
         if visible is not None:
-            found = [f for f in found if visible(f[0])]
+            found = [f for f in found if visible(x, y, f[0])]
         if self.max_detections is not None and len(found) > self.max_detections:
             by_range = sorted(range(len(found)), key=lambda j: found[j][1])  # stable
             found = [found[j] for j in sorted(by_range[: self.max_detections])]
@@ -274,9 +292,14 @@ class LandmarkSensor:
                     for (_, r, phi), (n0, n1) in zip(found, noise, strict=True)
                 ]
         else:
-            z = list(zip(dx.take(rows).tolist(), dy.take(rows).tolist(), strict=True))
-            if noise is not None:
-                z = [(a + n0 * s0, b + n1 * s1) for (a, b), (n0, n1) in zip(z, noise, strict=True)]
+            local = d.take(rows).tolist()  # Python complex numbers d_x + i·d_y
+            if noise is None:
+                z = [(w.real, w.imag) for w in local]
+            else:
+                z = [
+                    (w.real + n0 * s0, w.imag + n1 * s1)
+                    for w, (n0, n1) in zip(local, noise, strict=True)
+                ]
         return rows, [ids[i] for i in rows], z
 
 
@@ -317,16 +340,16 @@ class OdometrySensor:
         self.dim: int = 3 if self._odometry else 2
         self.angle_indices: tuple[int, ...] = (0, 2) if self._odometry else (1,)
         """Entries of u that are angles (wrapped to [−π, π))."""
+        # `_true_control(pose0, pose1)`: :meth:`true_control` as a tuple of Python
+        # floats, the env's hot path. The geometry function itself, not a method that
+        # calls it: one call fewer per step.
+        self._true_control: Callable[..., tuple[float, ...]] = (
+            odometry_from_poses if self._odometry else velocity_from_poses
+        )
 
     def true_control(self, pose0, pose1) -> np.ndarray:
         """The noiseless control (dim,) that takes pose0 to pose1."""
         return np.array(self._true_control(pose0, pose1), dtype=np.float64)
-
-    def _true_control(self, pose0, pose1) -> tuple[float, ...]:
-        """:meth:`true_control` as a tuple of Python floats (the env's hot path)."""
-        if self._odometry:
-            return odometry_from_poses(pose0, pose1)
-        return velocity_from_poses(pose0, pose1)
 
     def noise_cov(self, u) -> np.ndarray:
         """The action-space noise covariance at u: M (3×3) or Σu (2×2), diagonal."""
@@ -349,13 +372,20 @@ class OdometrySensor:
         arithmetic of the vectorised form (sqrt, one multiply, one add), so same bits."""
         sqrt = math.sqrt
         if self._odometry:
-            v1, v2, v3 = odometry_action_variances(u, self.alphas)
-            e1, e2, e3 = rng.standard_normal(3).tolist()
             rot1, trans, rot2 = u
+            # odometry_action_variances(u, alphas), written out: a call and its float
+            # conversions cost more than the arithmetic. The test
+            # test_perturb_is_bitwise_the_vectorised_formula holds it to noise_cov.
+            a1, a2, a3, a4 = self.alphas
+            r1, t, r2 = rot1 * rot1, trans * trans, rot2 * rot2
+            e1, e2, e3 = rng.standard_normal(3).tolist()
+            # wrap_float, written out for the same reason
+            w1 = (rot1 + sqrt(a1 * r1 + a2 * t) * e1 + _PI) % TWO_PI - _PI
+            w3 = (rot2 + sqrt(a1 * r2 + a2 * t) * e3 + _PI) % TWO_PI - _PI
             return (
-                wrap_float(rot1 + sqrt(v1) * e1),
-                trans + sqrt(v2) * e2,
-                wrap_float(rot2 + sqrt(v3) * e3),
+                _BELOW_PI if w1 > _BELOW_PI else w1,
+                trans + sqrt(a3 * t + a4 * (r1 + r2)) * e2,
+                _BELOW_PI if w3 > _BELOW_PI else w3,
             )
         v1, v2 = velocity_control_variances(u, self.velocity_noise)
         e1, e2 = rng.standard_normal(2).tolist()

@@ -28,6 +28,14 @@ from typing import Any
 import numpy as np
 import pymunk
 
+# pymunk's own cffi binding of Chipmunk (pymunk pins this layout for 7.x, see
+# pyproject.toml): the hot queries call it directly, because pymunk's Python wrappers
+# (an ffi.new, a handle lookup and a result tuple of Vec2d per query) cost about
+# three times the query itself. The public methods remain the reference the tests
+# compare against.
+from pymunk._chipmunk_cffi import ffi as _ffi
+from pymunk._chipmunk_cffi import lib as _lib
+
 from slam_env.config import RobotConfig
 from slam_env.layouts import LANDMARK_POST_RADIUS, Layout
 
@@ -51,6 +59,31 @@ CLEARANCE_LOOKAHEAD = 0.5
 # Slack (m) for round-off when a move is settled from an earlier query's answer; the
 # distances involved are exact to ~1e-15 m.
 _CLEARANCE_SLACK = 1e-9
+
+
+class _CQueries:
+    """The C-side arguments of a world's direct Chipmunk queries (see
+    :meth:`World._new_c_side`): a reusable point-query result buffer, the motion
+    filter, and each landmark's line-of-sight filter and position."""
+
+    __slots__ = ("_owners", "landmark_points", "los_filters", "motion_filter", "point_info")
+
+    def __init__(
+        self, los_filters: tuple[pymunk.ShapeFilter, ...], points: tuple[tuple[float, float], ...]
+    ) -> None:
+        self.point_info = _ffi.new("cpPointQueryInfo *")
+        # ffi.new owns the memory; its [0] is the struct passed by value. The owners
+        # are kept so that the structs outlive nothing they point into.
+        owners = (
+            _ffi.new("cpShapeFilter *", tuple(_MOTION_FILTER)),
+            *(_ffi.new("cpShapeFilter *", tuple(f)) for f in los_filters),
+            *(_ffi.new("cpVect *", p) for p in points),
+        )
+        self._owners = owners
+        n = len(los_filters)
+        self.motion_filter = owners[0][0]
+        self.los_filters = tuple(o[0] for o in owners[1 : 1 + n])
+        self.landmark_points = tuple(o[0] for o in owners[1 + n :])
 
 
 class World:
@@ -119,6 +152,7 @@ class World:
             for i in range(layout.n_landmarks)
         )
         self._build_space()
+        self._new_c_side()
         # (cx, cy, d): nothing the robot can hit lies closer than d to (cx, cy).
         self._clear_disk = (0.0, 0.0, -math.inf)
         x, y, theta = layout.start_pose
@@ -159,6 +193,21 @@ class World:
         self._space = space
         self._body = body
         self._robot_shape = shape
+
+    def _new_c_side(self) -> None:
+        """Build the C structs that the direct Chipmunk queries pass: converting a
+        ShapeFilter or a point from Python costs about as much as a query. cdata
+        cannot be pickled, so every copy of the world builds its own."""
+        self._c = _CQueries(self._los_filters, self._landmark_points)
+
+    def __getstate__(self) -> dict[str, Any]:
+        state = self.__dict__.copy()
+        del state["_c"]
+        return state
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        self.__dict__.update(state)
+        self._new_c_side()
 
     def _place(self, x: float, y: float, theta: float) -> None:
         self._x, self._y = x, y
@@ -229,33 +278,46 @@ class World:
             raise ValueError(f"step needs finite v and omega, got ({v}, {omega})")
         x, y, a = self._x, self._y, self._theta
         radius = self.robot.radius
+        substeps, dt = self.substeps, self.dt
         # Moves no longer than half the robot's radius cannot jump over anything: the
         # thinnest obstacle (a post or a wall) plus the robot is wider than that.
-        n = max(self.substeps, math.ceil(abs(v) * self.dt / (MAX_MOVE_FRACTION * radius)))
-        h = self.dt / n
+        # n = max(substeps, ceil(moves)), without the two calls in the usual case.
+        moves = abs(v) * dt / (MAX_MOVE_FRACTION * radius)
+        n = substeps if moves <= substeps else math.ceil(moves)
+        h = dt / n
         dth, travel = omega * h, v * h
-        clearance = self._clearance
-        # Nothing within reach of the whole step: no need to check each move.
-        reach = radius + abs(v) * self.dt
-        free = v == 0.0 or clearance(x, y, reach) >= reach
-        blocked = False
+        half_dth = 0.5 * dth
         cos, sin = math.cos, math.sin
-        for _ in range(n):
+        blocked = False
+        # Nothing within reach of the whole step: no need to check each move.
+        reach = radius + abs(v) * dt
+        if travel == 0.0:
+            for _ in range(n):
+                a += dth
+        elif self._clearance(x, y, reach) >= reach:
             # Midpoint rule: each move follows the chord of the arc, at the mean heading.
-            mid_heading = a + 0.5 * dth
-            a += dth
-            if travel == 0.0:
-                continue
-            dx, dy = travel * cos(mid_heading), travel * sin(mid_heading)
-            if not free:
+            for _ in range(n):
+                mid_heading = a + half_dth
+                a += dth
+                x += travel * cos(mid_heading)
+                y += travel * sin(mid_heading)
+        else:
+            clearance = self._clearance
+            for _ in range(n):
+                mid_heading = a + half_dth
+                a += dth
+                dx, dy = travel * cos(mid_heading), travel * sin(mid_heading)
                 gap = clearance(x + dx, y + dy, radius)
                 if gap < radius:
                     blocked = True
                     lo = self._contact(x, y, dx, dy, gap)
                     dx, dy = lo * dx, lo * dy
-            x += dx
-            y += dy
-        self._place(x, y, a)
+                x += dx
+                y += dy
+        # self._place(x, y, a), inlined
+        self._x, self._y = x, y
+        self._theta = (a + _PI) % _TWO_PI - _PI
+        self._body_synced = False
         return blocked
 
     def _clearance(self, x: float, y: float, reach: float) -> float:
@@ -277,8 +339,14 @@ class World:
         if bound >= reach:
             return bound
         radius = reach + CLEARANCE_LOOKAHEAD
-        nearest = self._space.point_query_nearest((x, y), radius, _MOTION_FILTER)
-        clear = radius if nearest is None else nearest.distance
+        # point_query_nearest, called directly: a shape found (non-NULL) has its
+        # distance in the result buffer.
+        c = self._c
+        info = c.point_info
+        if _lib.cpSpacePointQueryNearest(self._space._space, (x, y), radius, c.motion_filter, info):
+            clear = info.distance
+        else:
+            clear = radius
         self._clear_disk = (x, y, clear)
         return clear
 
@@ -293,7 +361,8 @@ class World:
         a query: the same answers, fewer queries.
         """
         radius = self.robot.radius
-        query = self._space.point_query_nearest
+        query, space = _lib.cpSpacePointQueryNearest, self._space._space
+        info, motion_filter = self._c.point_info, self._c.motion_filter
         hx, hy, hd = x + dx, y + dy, gap  # the last point found blocked, its distance
         lo, hi = 0.0, 1.0
         for _ in range(CONTACT_BISECTIONS):
@@ -302,12 +371,12 @@ class World:
             if hd + math.hypot(px - hx, py - hy) + _CLEARANCE_SLACK < radius:
                 hi = mid
                 continue
-            nearest = query((px, py), radius, _MOTION_FILTER)
-            if nearest is None:
-                lo = mid
-            else:
+            # point_query_nearest, called directly (see _clearance)
+            if query(space, (px, py), radius, motion_filter, info):
                 hi = mid
-                hx, hy, hd = px, py, nearest.distance
+                hx, hy, hd = px, py, info.distance
+            else:
+                lo = mid
         return lo
 
     # ----------------------------------------------------------------- line of sight
@@ -327,14 +396,17 @@ class World:
     def _landmark_visible_from(self, x: float, y: float, landmark_index: int) -> bool:
         """``line_of_sight((x, y), <the landmark's position>, landmark_index)`` for a
         point given as Python floats: the env's occlusion test, without converting
-        arrays at every call."""
-        hit = self._space.segment_query_first(
+        arrays at every call, and calling Chipmunk directly (no result is built: a
+        NULL ``out`` is allowed, and the returned shape pointer is NULL when clear)."""
+        c = self._c
+        return not _lib.cpSpaceSegmentQueryFirst(
+            self._space._space,
             (x, y),
-            self._landmark_points[landmark_index],
+            c.landmark_points[landmark_index],
             0.0,
-            self._los_filters[landmark_index],
+            c.los_filters[landmark_index],
+            _ffi.NULL,
         )
-        return hit is None
 
     def range_scan(
         self, x: float, y: float, theta: float, angles: tuple[float, ...], max_range: float

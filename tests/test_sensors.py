@@ -638,9 +638,10 @@ def test_noise_free_odometry_is_exact_and_perturb_checks_shape():
 def vectorised_sense(sensor, pose, pos, ids, rng, los=None):
     """LandmarkSensor.sense as numpy array operations (its definition, step by step)."""
     x, y, th = pose
-    c, s = math.cos(th), math.sin(th)
-    d = np.dot(pos, np.array([[c, -s], [s, c]]))
-    d -= (c * x + s * y, c * y - s * x)
+    # R(θ)ᵀ(m − t) in complex numbers: (m − t)·e^(−iθ), as m·e^(−iθ) − t·e^(−iθ).
+    rot = complex(math.cos(th), -math.sin(th))
+    dc = (pos[:, 0] + 1j * pos[:, 1]) * rot - complex(x, y) * rot
+    d = np.stack([dc.real, dc.imag], axis=-1)
     rb = np.stack([np.hypot(d[:, 0], d[:, 1]), np.arctan2(d[:, 1], d[:, 0])], axis=-1)
     mask = rb[:, 0] <= sensor.max_range
     if sensor.fov < 2 * PI:
@@ -699,7 +700,8 @@ def test_private_scan_is_what_sense_returns():
     for t in range(50):
         pose = (0.1 * t, -0.2 * t, 0.37 * t)
         det = sensor.sense(pose, pos, ids, RNG(t))
-        rows, scan_ids, z = sensor._scan(*pose, pos, ids.tolist(), RNG(t), None)
+        points = LandmarkSensor._as_points(pos)
+        rows, scan_ids, z = sensor._scan(*pose, points, ids.tolist(), RNG(t), None)
         assert det.index.tolist() == rows and det.ids.tolist() == scan_ids
         assert det.z.tobytes() == np.array(z, dtype=np.float64).reshape(-1, 2).tobytes()
 
