@@ -188,7 +188,8 @@ class EgocentricEncoding:
         ck, sk = c / g.max_range, s / g.max_range
         bound = self._rel_bound
         inside = True
-        for i, lid in enumerate(state_to_id.tolist()):
+        ids = state_to_id.tolist() if isinstance(state_to_id, np.ndarray) else state_to_id
+        for i, lid in enumerate(ids):
             row = 3 + 2 * i
             rx, ry = ml[row] - x, ml[row + 1] - y
             ex = rx * ck + ry * sk

@@ -281,7 +281,8 @@ class EKFSLAM:
         ``predict(u)``, ``update(z, ids) -> UpdateResult``; read the belief with
         ``mean``/``cov`` (``(3+2n,)``/``(3+2n, 3+2n)``), ``pose``/``pose_cov``,
         ``landmark(id)``, ``landmark_means()``/``landmark_covs()`` (state order),
-        ``state_to_id``/``id_to_state``. Every read returns a fresh copy. Invalid
+        ``state_to_id``/``id_to_state``. Every read returns a fresh copy, except
+        ``belief_views()``: read-only views for a per-step reader. Invalid
         input raises ``ValueError``/``TypeError`` naming what was wrong and leaves the
         filter unchanged. ``copy()`` is an independent deep copy; instances pickle.
     """
