@@ -33,9 +33,9 @@ class CoverageGrid:
     the last ring unbounded), ring-major: feature ``r·sectors + k``. A region that
     holds no arena cell has share 0: nothing left to see there.
 
-    Footprints and region maps are tabulated per heading bin once, and the cell count
-    per region is cached per heading bin and robot cell, so that a step costs a few
-    array operations on the grid.
+    Footprints and region maps are tabulated per heading bin once, so that a step
+    costs a few array operations on the grid (one count of its cells per region and
+    swept state).
 
     Args:
         width, height: m, the arena.
@@ -117,23 +117,16 @@ class CoverageGrid:
         self._setup_scratch()
         self.reset()
 
-    # Views, scratch buffers and caches: rebuilt on unpickling, never pickled (a view
+    # Views and scratch buffers: rebuilt on unpickling, never pickled (a view
     # would come back as a copy, detached from the padded grid).
-    _TRANSIENT = ("_flat", "_swept_u8", "_buf", "_buf_flat", "_divisors", "_out", "_ratios")
+    _TRANSIENT = ("_flat", "_swept_u8", "_buf", "_buf_flat", "_out")
 
     def _setup_scratch(self) -> None:
         self._flat = self._padded.reshape(-1)  # a view: the padded grid is contiguous
         self._swept_u8 = self.swept.view(np.uint8)  # bool's bytes are 0/1
         self._buf = np.empty((self.ny, self.nx), dtype=np.intp)  # the codes, bincount's input
         self._buf_flat = self._buf.reshape(-1)
-        # Per (row, column, heading bin): max(1, arena cells per code pair). They depend
-        # on nothing else, so an entry never goes stale, and there are at most
-        # nx·ny·heading_bins of them.
-        self._divisors: dict[tuple[int, int, int], np.ndarray] = {}
-        # [swept fraction, then per code the share of its region's cells]: every other
-        # entry from the first is [swept fraction, features...].
-        self._out = np.empty(1 + self._n_codes)
-        self._ratios = self._out[1:]
+        self._out = np.empty(1 + self.n_features)  # [swept fraction, features...]
 
     def __getstate__(self) -> dict[str, Any]:
         return {k: v for k, v in self.__dict__.items() if k not in self._TRANSIENT}
@@ -210,16 +203,13 @@ class CoverageGrid:
             out=self._buf,
         )
         counts = np.bincount(self._buf_flat, minlength=self._n_codes)
-        key = (i, j, b)
-        divisor = self._divisors.get(key)
-        if divisor is None:
-            total = np.maximum(counts[0::2] + counts[1::2], 1)
-            divisor = self._divisors[key] = np.repeat(total, 2).astype(np.float64)
+        unswept = counts[1::2]
+        total = counts[0::2] + unswept
+        np.maximum(total, 1, out=total)
         out = self._out
         out[0] = self._n_swept / (nx * ny)
-        # float64 counts / float64 totals, as ever: the shares are bit-identical.
-        np.divide(counts, divisor, out=self._ratios)
-        return out[0::2]
+        np.divide(unswept, total, out=out[1:])  # as ever: the shares are bit-identical
+        return out
 
 
 class CoverageWrapper(gym.ObservationWrapper):
