@@ -7,9 +7,8 @@ import math
 import numpy as np
 
 TWO_PI = 2.0 * math.pi
-
-
 _HALF_PI = math.pi / 2.0
+
 
 # The largest float below π: (a + π) % 2π − π rounds to +π for some a just below −π.
 _BELOW_PI = math.nextafter(math.pi, 0.0)

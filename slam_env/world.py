@@ -28,11 +28,10 @@ from typing import Any
 import numpy as np
 import pymunk
 
-# pymunk's own cffi binding of Chipmunk (pymunk pins this layout for 7.x, see
-# pyproject.toml): the hot queries call it directly, because pymunk's Python wrappers
-# (an ffi.new, a handle lookup and a result tuple of Vec2d per query) cost about
-# three times the query itself. The public methods remain the reference the tests
-# compare against.
+# pymunk's own cffi binding of Chipmunk, private to pymunk (pyproject.toml pins pymunk
+# to 7.x): the hot queries call it directly, because pymunk's Python wrappers (an
+# ffi.new, a handle lookup and a result tuple of Vec2d per query) cost about three
+# times the query itself. The tests hold them to the public pymunk queries.
 from pymunk._chipmunk_cffi import ffi as _ffi
 from pymunk._chipmunk_cffi import lib as _lib
 
@@ -72,8 +71,8 @@ class _CQueries:
         self, los_filters: tuple[pymunk.ShapeFilter, ...], points: tuple[tuple[float, float], ...]
     ) -> None:
         self.point_info = _ffi.new("cpPointQueryInfo *")
-        # ffi.new owns the memory; its [0] is the struct passed by value. The owners
-        # are kept so that the structs outlive nothing they point into.
+        # ffi.new returns an owning pointer; its [0], the struct passed by value, lives
+        # in that memory, so the owners are kept with it.
         owners = (
             _ffi.new("cpShapeFilter *", tuple(_MOTION_FILTER)),
             *(_ffi.new("cpShapeFilter *", tuple(f)) for f in los_filters),
@@ -286,16 +285,16 @@ class World:
         n = substeps if moves <= substeps else math.ceil(moves)
         h = dt / n
         dth, travel = omega * h, v * h
+        # Midpoint rule: each move follows the chord of the arc, at the mean heading.
         half_dth = 0.5 * dth
         cos, sin = math.cos, math.sin
         blocked = False
-        # Nothing within reach of the whole step: no need to check each move.
         reach = radius + abs(v) * dt
-        if travel == 0.0:
+        if travel == 0.0:  # turning in place: nothing to check
             for _ in range(n):
                 a += dth
         elif self._clearance(x, y, reach) >= reach:
-            # Midpoint rule: each move follows the chord of the arc, at the mean heading.
+            # Nothing within reach of the whole step: no need to check each move.
             for _ in range(n):
                 mid_heading = a + half_dth
                 a += dth

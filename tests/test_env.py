@@ -13,6 +13,7 @@ import pytest
 from gymnasium.utils.env_checker import check_env as gym_check_env
 from stable_baselines3.common.env_checker import check_env as sb3_check_env
 
+from slam_env.env import unpack_detections
 from tests.streams import digest, pickled_twin_digests, rollout_digest
 
 ENV_ID = "slam_env/Landmarks-v0"
@@ -76,6 +77,36 @@ def test_observation_encoding_matches_the_docstring():
         assert r == pytest.approx(np.hypot(dx, dy), abs=1e-5)
         expected = (np.arctan2(dy, dx) - th + np.pi) % (2 * np.pi) - np.pi
         assert phi == pytest.approx(expected, abs=1e-5)
+
+
+def test_detections_are_sorted_by_id_when_the_layout_lists_ids_out_of_order():
+    """A user layout's rows need not be in ID order: the observation still lists the
+    detections by ascending ID, the same ones the public sensor API finds."""
+    rng = np.random.default_rng(11)
+    ids = rng.permutation(np.arange(3, 15)).tolist()
+    xy = rng.uniform(1.0, 9.0, (len(ids), 2)).tolist()
+    landmarks = [{"id": i, "x": x, "y": y} for i, (x, y) in zip(ids, xy, strict=True)]
+    layout = {"width": 10.0, "height": 10.0, "landmarks": landmarks, "start": [5, 5, 0]}
+    env = gym.make(ENV_ID, layout=layout, range_std=0.0, bearing_std=0.0, fov=2 * math.pi)
+    env.action_space.seed(1)
+    env.reset(seed=1)
+    raw = env.unwrapped
+    found = 0
+    for _ in range(40):
+        obs, _, _, _, info = env.step(env.action_space.sample())
+        z, got = unpack_detections(obs)
+        assert got.tolist() == sorted(got.tolist())
+        det = raw.sensor.sense(
+            info["pose"],
+            info["landmark_positions"],
+            info["landmark_ids"],
+            np.random.default_rng(0),
+            line_of_sight=raw.world.line_of_sight,
+        )
+        assert got.tolist() == det.ids.tolist()
+        assert np.array_equal(z, det.z.astype(np.float32).astype(np.float64))
+        found += len(got) > 1
+    assert found > 10  # several detections at once, in an order to fix
 
 
 def test_info_carries_ground_truth_and_the_observation_does_not():

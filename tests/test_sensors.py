@@ -706,6 +706,36 @@ def test_private_scan_is_what_sense_returns():
         assert det.z.tobytes() == np.array(z, dtype=np.float64).reshape(-1, 2).tobytes()
 
 
+def test_as_points_views_contiguous_positions_and_sense_takes_any_layout():
+    pos = RNG(304).uniform(-6, 6, (25, 2))
+    points = LandmarkSensor._as_points(pos)
+    assert points.dtype == np.complex128 and points.shape == (25,)
+    assert np.shares_memory(points, pos)  # no copy for the env's C-contiguous array
+    assert points.tolist() == [complex(x, y) for x, y in pos.tolist()]
+    # Fortran order and a strided view hold the same values: the same scan, bit for bit.
+    wide = np.zeros((25, 4))
+    wide[:, ::2] = pos
+    sensor = LandmarkSensor(SensorConfig(max_range=6.0, fov=4.0))
+    ids = np.arange(25)
+    ref = sensor.sense((0.3, -0.4, 0.8), pos, ids, RNG(0))
+    for other in (np.asfortranarray(pos), wide[:, ::2]):
+        det = sensor.sense((0.3, -0.4, 0.8), other, ids, RNG(0))
+        assert det.z.tobytes() == ref.z.tobytes() and det.index.tolist() == ref.index.tolist()
+
+
+def test_scan_told_ids_ascend_skips_only_the_sort():
+    """``ids_ascending=True`` (row order is ID order, ties included) gives the same scan."""
+    sensor = LandmarkSensor(SensorConfig(max_range=6.0, fov=4.0, detection_prob=0.8))
+    pos = RNG(305).uniform(-6, 6, (25, 2))
+    points = LandmarkSensor._as_points(pos)
+    ids = sorted(RNG(306).integers(0, 15, 25).tolist())  # ascending, with repeats
+    for t in range(50):
+        pose = (0.1 * t, -0.2 * t, 0.37 * t)
+        plain = sensor._scan(*pose, points, ids, RNG(t), None)
+        told = sensor._scan(*pose, points, ids, RNG(t), None, ids_ascending=True)
+        assert told == plain
+
+
 @pytest.mark.parametrize("model", ["odometry", "velocity"])
 def test_perturb_is_bitwise_the_vectorised_formula(model):
     sensor = OdometrySensor(OdometryConfig(motion_model=model))

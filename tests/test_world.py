@@ -503,6 +503,31 @@ def test_landmark_visible_from_matches_line_of_sight() -> None:
         assert w._landmark_visible_from(x, y, i) == w.line_of_sight((x, y), pos[i], i)
 
 
+@pytest.mark.parametrize("how", ["pickle", "deepcopy"])
+def test_direct_queries_work_on_copies(how) -> None:
+    """The C structs of the direct Chipmunk queries are rebuilt by each copy: its
+    occlusion test and clearance still answer like pymunk's own queries."""
+    w = World(preset_layout("cluttered", WorldConfig()), ROBOT, DT, SUBSTEPS, T)
+    clone = pickle.loads(pickle.dumps(w)) if how == "pickle" else copy.deepcopy(w)
+    del w  # the clone must not depend on the original's memory
+    rng = np.random.default_rng(8)
+    pos = clone.landmark_positions
+    width, height = clone.layout.width, clone.layout.height
+    hits = 0
+    for _ in range(300):
+        x, y = float(rng.uniform(0.3, width - 0.3)), float(rng.uniform(0.3, height - 0.3))
+        i = int(rng.integers(len(pos)))
+        assert clone._landmark_visible_from(x, y, i) == clone.line_of_sight((x, y), pos[i], i)
+        reach = float(rng.uniform(0.05, 0.6))
+        hit = clone.space.point_query_nearest((x, y), reach, _MOTION_FILTER)
+        clearance = clone._clearance(x, y, reach)
+        assert (clearance < reach) == (hit is not None)
+        if hit is not None:
+            assert clearance == hit.distance
+            hits += 1
+    assert hits > 10
+
+
 def test_validated_layout_skips_only_the_check() -> None:
     bad = arena(start_pose=(5.0, 2.5, 0.0))  # the robot would start inside the wall
     with pytest.raises(ValueError):
