@@ -29,9 +29,12 @@ class CoverageGrid:
 
     The features are the unswept share of the cells in each of ``sectors`` equal
     sectors around the robot (sector k is centred on bearing 2πk/``sectors`` from the
-    heading, counter-clockwise) and each distance ring (bounded by ``ring_edges``, m,
-    the last ring unbounded), ring-major: feature ``r·sectors + k``. A region that
-    holds no arena cell has share 0: nothing left to see there.
+    heading, counter-clockwise, from −π/``sectors`` inclusive to +π/``sectors``
+    exclusive about its centre) and each distance ring (bounded by ``ring_edges``, m,
+    each edge inclusive in the ring outside it, the last ring unbounded), measured
+    like the footprint; ring-major: feature ``r·sectors + k``. The robot's own cell,
+    which has no bearing of its own, counts at bearing 0 of the world frame. A region
+    that holds no arena cell has share 0: nothing left to see there.
 
     Footprints and region maps are tabulated per heading bin once, so that a step
     costs a few array operations on the grid (one count of its cells per region and
@@ -159,7 +162,8 @@ class CoverageGrid:
 
     def cell_of(self, x: float, y: float) -> tuple[int, int]:
         """(row, column) of the cell holding (x, y), clamped into the grid (a diverged
-        estimate outside the arena sweeps from the nearest border cell)."""
+        estimate outside the arena sweeps from the nearest border cell, a NaN one from
+        the first)."""
         return self._locate(x, y, 0.0)[:2]
 
     def heading_bin(self, theta: float) -> int:
@@ -167,12 +171,14 @@ class CoverageGrid:
         return self._locate(0.0, 0.0, theta)[2]
 
     def _locate(self, x: float, y: float, theta: float) -> tuple[int, int, int]:
-        """:meth:`cell_of` and :meth:`heading_bin` at once (one call per step)."""
-        i = math.floor(y / self.cell) if math.isfinite(y) else 0
-        j = math.floor(x / self.cell) if math.isfinite(x) else 0
+        """:meth:`cell_of` and :meth:`heading_bin` at once (one call per step). A NaN
+        coordinate stands for the first cell, a NaN or infinite heading for bin 0."""
+        # Clamped before the floor, which an infinity would overflow.
+        i = math.floor(min(max(y / self.cell, 0.0), self.ny - 1.0)) if y == y else 0
+        j = math.floor(min(max(x / self.cell, 0.0), self.nx - 1.0)) if x == x else 0
         n = self.heading_bins
         b = round(theta % TWO_PI * (n / TWO_PI)) % n if math.isfinite(theta) else 0
-        return min(max(i, 0), self.ny - 1), min(max(j, 0), self.nx - 1), b
+        return i, j, b
 
     def sweep(self, x: float, y: float, theta: float) -> int:
         """Mark the footprint seen from pose (x, y, θ) swept; return the new cells."""
@@ -295,6 +301,4 @@ class CoverageWrapper(gym.ObservationWrapper):
         """``obs`` with the float64 ``coverage`` features rounded to float32."""
         if isinstance(obs, dict):
             return {**obs, "coverage": coverage.astype(np.float32)}
-        if isinstance(obs, np.ndarray) and obs.dtype == np.float32:
-            return np.concatenate((obs, coverage), dtype=np.float32)  # rounds on the way
-        return np.concatenate([obs, coverage.astype(np.float32)])
+        return np.concatenate((obs, coverage), dtype=np.float32)  # rounds on the way

@@ -76,7 +76,7 @@ def log_det_psd(cov, floor: float = 0.0, copy: bool = True) -> float:
     ``floor``, which keeps the result finite for a singular Σ.
 
     Tries a Cholesky factorisation first (fast); falls back to eigenvalues (clamped at
-    ``floor``, or the smallest positive double) when round-off leaves the matrix
+    ``floor``, or at 1e-300 without one) when round-off leaves the matrix
     slightly indefinite. ``copy=False`` lets the floor be added to a float64 ``cov``
     in place (a caller's scratch array).
     """
