@@ -9,6 +9,9 @@ import gymnasium as gym
 import numpy as np
 import pytest
 
+from slam_env.env import LandmarksEnv
+from slam_env.wrappers import EKFSLAMWrapper
+
 ENV_ID = "slam_env/ActiveSLAM-v0"
 
 
@@ -81,3 +84,14 @@ def test_heading_error_is_the_wrapped_difference():
     f.reset(initial_pose=(2.0, 2.0, math.radians(179.0)))
     *_, info = env.step(np.zeros(2, np.float32))
     assert info["heading_error"] == pytest.approx(math.radians(2.0), rel=1e-6)
+
+
+def test_a_position_variance_below_zero_from_round_off_reads_as_zero():
+    """A start pose covariance a hair below zero (within the filter's round-off
+    allowance) gives pose_std 0, not NaN."""
+    env = EKFSLAMWrapper(
+        LandmarksEnv(n_landmarks=3), initial_pose_cov=np.diag([-1e-13, -1e-13, 0.0])
+    )
+    _, info = env.reset(seed=0)
+    assert env.filter.pose_cov[0, 0] + env.filter.pose_cov[1, 1] < 0.0
+    assert info["pose_std"] == 0.0
