@@ -30,6 +30,10 @@ DIVERGENCE_REJECTIONS = 10
 # information worth paying for, and it keeps the entropy finite for an exactly
 # known start pose.
 ENTROPY_FLOOR = 1e-4
+# What the filter raises when its arithmetic breaks down. The wrapper feeds it only the
+# env's own stream, well-formed by construction (finite, of the right shapes, IDs in
+# range), so a ValueError from it (a math domain error, a LinAlgError) is numerical too.
+NUMERICAL_FAILURES = (ArithmeticError, ValueError)
 
 
 def landmark_prior_variance(width: float, height: float) -> tuple[float, float]:
@@ -64,15 +68,18 @@ class EKFSLAMWrapper(gym.ObservationWrapper):
     the full belief.
 
     ``info`` gains, every step: ``pose_error`` (m), ``heading_error`` (rad),
-    ``map_rmse`` (m, over known landmarks; nan before the first), ``pose_nees``,
+    ``map_rmse`` (m, over known landmarks; absent before the first, as an undefined
+    metric is: never NaN, so equal runs give equal infos), ``pose_nees``,
     ``landmarks_known``, ``rejected`` (observations the gate refused this episode),
     ``entropy`` (nats, see :meth:`belief_entropy`), ``pose_std`` (m, √trace of the
     position covariance), ``belief_clipped`` (the belief left the observation's
     bounds), ``consecutive_rejections`` (observations of known landmarks the gate has
     refused in a row) and ``diverged``: the filter has lost track, because the belief
-    was clipped, a correction failed numerically (it is then skipped, never applied as
-    NaN), or the gate refused ``DIVERGENCE_REJECTIONS`` observations in a row (after a
-    kidnapping, every landmark is where the belief says it cannot be).
+    was clipped, a prediction or correction failed numerically (it is then skipped,
+    never applied as NaN, and never raised out of ``step``), or the gate refused
+    ``DIVERGENCE_REJECTIONS`` observations in a row (after a kidnapping, every
+    landmark is where the belief says it cannot be). ``pose_nees`` is absent, like
+    ``map_rmse``, in the one case it is undefined (a covariance gone non-finite).
     """
 
     def __init__(
@@ -165,7 +172,10 @@ class EKFSLAMWrapper(gym.ObservationWrapper):
 
     def step(self, action: Any) -> tuple[Any, SupportsFloat, bool, bool, dict[str, Any]]:
         raw, reward, terminated, truncated, info = self.env.step(action)
-        self.filter.predict(raw["odometry"])
+        try:
+            self.filter.predict(raw["odometry"])
+        except NUMERICAL_FAILURES:
+            self._numerical_failure = True  # the belief has diverged: report it
         self._correct(raw)
         obs, info = self._observe(raw, info)
         return obs, reward, terminated, truncated, info
@@ -226,7 +236,7 @@ class EKFSLAMWrapper(gym.ObservationWrapper):
         z, ids = unpack_detections(raw)
         try:
             result = self.filter.update(z, ids)
-        except FloatingPointError:
+        except NUMERICAL_FAILURES:
             # The filter refused an update that would break Σ (and left itself as it
             # was): the belief has diverged; report it rather than hand out NaN.
             self._numerical_failure = True
@@ -248,17 +258,16 @@ class EKFSLAMWrapper(gym.ObservationWrapper):
         tx, ty, tth = info["pose"].tolist()
         err = [x - tx, y - ty, wrap_angle(th - tth)]
         n = ids.shape[0]
-        if n:
-            truth = self._truth_in_state_order(ids)
-            diff = np.subtract(mean[3:], truth)
-            map_rmse = math.sqrt(float(np.dot(diff, diff)) / n)
-        else:
-            map_rmse = math.nan
         pose_cov = cov[:3, :3].tolist()
         info["pose_error"] = math.hypot(err[0], err[1])
         info["heading_error"] = abs(err[2])
-        info["map_rmse"] = map_rmse
-        info["pose_nees"] = metrics.pose_nees_from_error(err, pose_cov)
+        if n:  # undefined (absent) before the first landmark
+            truth = self._truth_in_state_order(ids)
+            diff = np.subtract(mean[3:], truth)
+            info["map_rmse"] = math.sqrt(float(np.dot(diff, diff)) / n)
+        nees = metrics.pose_nees_from_error(err, pose_cov)
+        if not math.isnan(nees):  # NaN only from a broken covariance: absent too
+            info["pose_nees"] = nees
         info["landmarks_known"] = n
         info["rejected"] = f.n_rejected
         info["entropy"] = self.belief_entropy(cov)
