@@ -150,7 +150,6 @@ class LandmarksEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
 
         self._world: World | None = None
         self._renderer = None
-        self._closed = False
         self._seen = np.zeros(self.n_landmark_slots, dtype=bool)
         self._trail: list[tuple[float, float]] = []
         # The last scan (rows, IDs, z), for render_frame.
@@ -214,8 +213,6 @@ class LandmarksEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
     ) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
         super().reset(seed=seed)
-        if self._closed:
-            raise RuntimeError("reset() called on a closed LandmarksEnv; make a new env")
         if options:
             raise ValueError(f"LandmarksEnv.reset takes no options, got {sorted(options)}")
         cfg = self.config
@@ -260,8 +257,6 @@ class LandmarksEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
     def step(
         self, action: Any
     ) -> tuple[dict[str, np.ndarray], SupportsFloat, bool, bool, dict[str, Any]]:
-        if self._closed:
-            raise RuntimeError("step() called on a closed LandmarksEnv; make a new env")
         world = self._world
         if world is None:
             raise ResetNeeded("call reset() before step()")
@@ -332,10 +327,12 @@ class LandmarksEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         return self._get_renderer().render(self.render_frame())
 
     def close(self) -> None:
+        """Release the renderer (its window, if any). As in Gymnasium's own envs the
+        episode is kept: ``step``, ``reset`` and ``render`` (which reopens what it
+        needs) still work."""
         if self._renderer is not None:
             self._renderer.close()
             self._renderer = None
-        self._closed = True
 
     # ------------------------------------------------------------------ helpers
     @property
