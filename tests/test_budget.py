@@ -1,11 +1,14 @@
 """The resource budget (slam_env/budget.py): every option that scales work or memory is
 refused at construction, before anything is built, with the option, the derived figure
-and the limit; what fits is not refused; the memory figure bounds what is allocated."""
+and the limit; what fits is not refused; the memory figure bounds what is allocated;
+the README lists every limit."""
 
 from __future__ import annotations
 
 import math
+import re
 import tracemalloc
+from pathlib import Path
 
 import gymnasium as gym
 import numpy as np
@@ -17,6 +20,7 @@ from slam_env.config import WorldConfig, make_config
 from slam_env.layouts import landmark_capacity
 
 RAW, ACTIVE = "slam_env/Landmarks-v0", "slam_env/ActiveSLAM-v0"
+README = Path(__file__).resolve().parents[1] / "README.md"
 
 
 def _layout(ids, width=20.0, height=20.0):
@@ -195,3 +199,40 @@ def test_landmark_capacity_bounds_a_hexagonal_packing(width, height, spacing):
                 count += len(np.arange(start, inner_w + 1e-9, spacing))
             best = max(best, count)
     assert best <= landmark_capacity(cfg) <= 1.5 * best + 5
+
+
+LIMITS = {
+    "MAX_MOVES_PER_STEP": "1,000",
+    "MAX_SCAN_BEAMS": "4,096",
+    "MAX_LANDMARKS": "2,000",
+    "MAX_OBSTACLES": "1,000",
+    "MAX_DETECTIONS": "4,096",
+    "MAX_ARENA_CELLS": "40,000",
+    "MAX_ARENA_RADII": "10¹⁰",
+    "MAX_OBSERVATION_BOUND": "10³⁷",
+    "NOISE_LIMIT": "10³⁰",
+    "MAX_REWARD_WEIGHT": "10¹⁰⁰",
+    "MAX_MEMORY_BYTES": "2 GiB",
+}
+
+
+def test_the_readme_lists_every_limit_with_its_value():
+    constants = {
+        name: getattr(budget, name) for name in dir(budget) if re.fullmatch(r"[A-Z_]+", name)
+    }
+    limits = {name for name in constants if name.startswith("MAX_") or name.endswith("_LIMIT")}
+    assert limits == set(LIMITS)
+    section = README.read_text().split("## Resource budget")[1].split("\n## ")[0]
+    for name, shown in LIMITS.items():
+        row = next(line for line in section.splitlines() if f"`{name}`" in line)
+        assert f"| {shown} |" in row, row
+        assert constants[name] == _readme_number(shown)
+
+
+def _readme_number(shown: str) -> float:
+    """A number as the README writes it: 1,000; 10³⁰; 2 GiB."""
+    if shown.endswith(" GiB"):
+        return float(shown[: -len(" GiB")]) * 2**30
+    if shown.startswith("10") and not shown[2:].isascii():
+        return 10.0 ** int(shown[2:].translate(str.maketrans("⁰¹²³⁴⁵⁶⁷⁸⁹", "0123456789")))
+    return float(shown.replace(",", ""))
