@@ -25,14 +25,18 @@ from slam_env.config import EnvConfig, plain
 MAX_MOVES_PER_STEP = 1_000
 # Proximity beams: a ray query each per step (~16 ms at the limit).
 MAX_SCAN_BEAMS = 4_096
-# Landmarks and landmark slots (max ID + 1): a random world places them in O(n²) (~1.7 s
-# per reset at the limit), a layout's are validated in O(n²), the belief is dense in
-# (3 + 2·slots)².
+# Landmarks: a random world places them in O(n²) (~1.7 s per reset at the limit), a
+# layout's are validated in O(n²). (Their slots, max ID + 1, cost memory, and the
+# belief's work below.)
 MAX_LANDMARKS = 2_000
 # Obstacles of a random world (placed in O(n²)) or a layout's, with its inner walls.
 MAX_OBSTACLES = 1_000
 # Detection rows of the raw observation: the env tabulates a mask per count.
 MAX_DETECTIONS = 4_096
+# Entries of the belief's (3 + 2·slots)² covariance touched per step at worst: a
+# correction per detection in view (~1 ns an entry), and the full observation's copies
+# (FULL_OBSERVATION_PASSES). At the limit such a step takes ~10 s; beyond, minutes.
+MAX_BELIEF_WORK = 1e10
 # 0.5 m cells of the arena where a grid over it is built: the coverage grid (~7 KB and
 # ~20 µs per cell to build) and the presets' lattices. A 100 m × 100 m arena.
 MAX_ARENA_CELLS = 40_000
@@ -61,9 +65,14 @@ BELIEF_DENSE_COPIES = {"egocentric": 4, "full": 9}
 # footprint, the footprint tables and temporaries; one byte per cell of the padded grid.
 COVERAGE_BYTES_PER_OFFSET = 2_100
 COVERAGE_BYTES_PER_FOOTPRINT_OFFSET = 2_400
-# Per landmark slot: the raw env's and the wrapper's per-ID arrays, pymunk's post and
-# query filter, the egocentric features' bounds (generous).
-BYTES_PER_LANDMARK_SLOT = 4_096
+# Per landmark: pymunk's post and query filter, the sensor's and the world's tables;
+# per slot (max ID + 1): the raw env's and the wrapper's per-ID arrays, the egocentric
+# features and their bounds (generous).
+BYTES_PER_LANDMARK = 4_096
+BYTES_PER_LANDMARK_SLOT = 256
+# Passes over the padded (3 + 2·slots)² covariance per step of the full observation
+# (scatter, clip, copies, cast; ~180 ms a step at 2,000 slots).
+FULL_OBSERVATION_PASSES = 10
 
 
 @dataclass(frozen=True)
@@ -155,7 +164,8 @@ def memory_parts(
     rows = world.max_detections
     parts = {
         "detections": 4 * (rows + 1) * rows,
-        "landmarks": BYTES_PER_LANDMARK_SLOT * max(world.n_landmark_slots, world.n_landmarks),
+        "landmarks": BYTES_PER_LANDMARK * world.n_landmarks
+        + BYTES_PER_LANDMARK_SLOT * world.n_landmark_slots,
         "belief": 0,
         "coverage": 0,
     }
@@ -253,6 +263,8 @@ def check_budget(
         weights, MAX_REWARD_WEIGHT, "a step's reward, its sums and squares must stay finite"
     )
     _check_observation_bounds(config, world, belief)
+    if belief is not None:
+        _check_belief_work(config, world, belief)
     per_env = _check_memory(config, world, belief, coverage, num_envs)
     return Usage(moves, cells, per_env)
 
@@ -292,20 +304,18 @@ def _check_world(config: EnvConfig, world: WorldSize, coverage: bool) -> int:
     else:
         counts = {
             "the layout's landmarks": world.n_landmarks,
-            "the layout's landmark slots (max ID + 1)": world.n_landmark_slots,
             "the layout's obstacles and inner walls": world.n_obstacles,
         }
     for figure, count in counts.items():
-        landmarks = "obstacle" not in figure
+        landmarks = "landmarks" in figure
         limit = MAX_LANDMARKS if landmarks else MAX_OBSTACLES
         if count > limit:
             _refuse(
                 figure,
                 count,
                 limit,
-                "a world places and validates them in O(n²)"
-                + (", and the belief is dense in (3 + 2·slots)²" if landmarks else ""),
-                f"use fewer {'landmarks (IDs from 0)' if landmarks else 'obstacles'}",
+                "a world places and validates them in O(n²)",
+                f"use fewer {'landmarks' if landmarks else 'obstacles'}",
             )
     if config.layout is None and world.n_landmarks > landmark_capacity(config.world):
         _refuse(
@@ -346,6 +356,36 @@ def _check_world(config: EnvConfig, world: WorldSize, coverage: bool) -> int:
             "shrink width or height, or raise radius",
         )
     return cells
+
+
+def detections_in_view(config: EnvConfig, world: WorldSize) -> int:
+    """The most detections a step can hold: the detection rows, the landmarks, and no
+    more than fit within ``max_range`` of the robot at their least spacing s, (2R/s + 1)²
+    (their discs of radius s/2 lie inside a disc of radius R + s/2)."""
+    from slam_env.layouts import landmark_spacing
+
+    spacing = landmark_spacing(config.world if config.layout is None else None)
+    around = (2.0 * config.sensor.max_range / spacing + 1.0) ** 2
+    return int(min(world.max_detections, world.n_landmarks, around))
+
+
+def _check_belief_work(config: EnvConfig, world: WorldSize, belief: str) -> None:
+    """The covariance entries the belief touches per step."""
+    passes = detections_in_view(config, world) + (
+        FULL_OBSERVATION_PASSES if belief == "full" else 0
+    )
+    dim = 3 + 2 * world.n_landmark_slots
+    if passes * dim * dim > MAX_BELIEF_WORK:
+        _refuse(
+            "belief work per step = (detections in view + the full observation's "
+            f"{FULL_OBSERVATION_PASSES} passes) · (3 + 2·landmark slots)²",
+            passes * dim * dim,
+            MAX_BELIEF_WORK,
+            "a correction per detection in view (within max_range, at most max_detections) "
+            "touches the whole covariance, as does the full observation",
+            "lower max_range or max_detections, use fewer landmark slots (n_landmarks, "
+            "or a layout's IDs from 0), or observation='egocentric'",
+        )
 
 
 def _check_observation_bounds(config: EnvConfig, world: WorldSize, belief: str | None) -> None:
@@ -398,7 +438,7 @@ def _check_memory(
 # The options that scale each part of the memory figure, for its error message.
 _MEMORY_OPTIONS = {
     "detections": "max_detections²",
-    "landmarks": "n_landmarks or the layout's IDs",
+    "landmarks": "n_landmarks, or a layout's landmarks and IDs",
     "belief": "(3 + 2·landmark slots)² for each observation",
     "coverage": "width, height and max_range, or coverage=False",
 }

@@ -689,7 +689,11 @@ def _landmark_problem(
     return None
 
 
-def _landmark_spacing(cfg: WorldConfig) -> float:
+def landmark_spacing(cfg: WorldConfig | None) -> float:
+    """The least distance (m) between two landmarks: ``cfg.landmark_spacing`` in a
+    generated world, the posts' diameter in any (``cfg`` None: a user's layout)."""
+    if cfg is None:
+        return 2.0 * LANDMARK_POST_RADIUS
     return max(cfg.landmark_spacing, 2.0 * LANDMARK_POST_RADIUS)
 
 
@@ -702,7 +706,7 @@ def landmark_capacity(cfg: WorldConfig) -> int:
     centres lie in the arena less the clearance on each side, at least the spacing
     apart, and Oler's inequality bounds such a set in a W' × H' rectangle by
     (2/√3)·W'H'/s² + (W' + H')/s + 1 points. Asking for more cannot succeed."""
-    need, spacing = _landmark_need(cfg), _landmark_spacing(cfg)
+    need, spacing = _landmark_need(cfg), landmark_spacing(cfg)
     w = max(cfg.width - 2.0 * need, 0.0) / spacing
     h = max(cfg.height - 2.0 * need, 0.0) / spacing
     return math.floor(2.0 / math.sqrt(3.0) * w * h + w + h + 1.0)
@@ -782,7 +786,7 @@ def random_layout(cfg: WorldConfig, robot_radius: float, rng: np.random.Generato
 
     # Landmarks.
     need = _landmark_need(cfg)
-    spacing = _landmark_spacing(cfg)
+    spacing = landmark_spacing(cfg)
     if 2.0 * need >= min(W, H):
         raise ValueError(
             f"clearance {need:g} m leaves no room for landmarks in the {W:g} × {H:g} m "
@@ -875,7 +879,7 @@ def _halton_landmarks(
     """``cfg.n_landmarks`` points of the Halton(2, 3) sequence that satisfy the clearance,
     spacing and keep-out constraints (deterministic, evenly spread)."""
     W, H = cfg.width, cfg.height
-    need, spacing = _landmark_need(cfg), _landmark_spacing(cfg)
+    need, spacing = _landmark_need(cfg), landmark_spacing(cfg)
     placed: list[Point] = []
     rejected = {"clearance": 0, "landmark_spacing": 0, "start": 0}
     for i in range(1, 200 * cfg.n_landmarks + 1000):
@@ -912,7 +916,7 @@ def _open_preset(cfg: WorldConfig, robot_radius: float) -> Layout:
         x = (col + 0.5) * cw + 0.25 * cw * _frac(k, 0)
         y = (row + 0.5) * ch + 0.25 * ch * _frac(k, 1)
         pts.append((min(max(x, need), W - need), min(max(y, need), H - need)))
-    spacing = _landmark_spacing(cfg)
+    spacing = landmark_spacing(cfg)
     for i in range(n):
         for j in range(i):
             if math.dist(pts[i], pts[j]) < spacing:

@@ -59,13 +59,25 @@ REFUSED = [
     (ACTIVE, {"filter_measurement_cov": [[1e61, 0], [0, 1]]}, "filter_measurement_cov", "1e+61"),
     (RAW, {"new_landmark_bonus": 1e101}, "new_landmark_bonus", "1e+101"),
     (ACTIVE, {"reward_weights": {"coverage": 1e101}}, "reward_weights.coverage", "1e+101"),
-    (RAW, {"layout": _layout([10**9])}, "landmark slots", "1000000001"),
+    (RAW, {"layout": _layout([10**9])}, "layout's landmarks and IDs", "memory"),
     (RAW, {"layout": _layout(range(2500), 40.0, 40.0)}, "layout's landmarks", "2500"),
     (
         ACTIVE,
         {"observation": "full", "max_range": 8000.0, "layout": _layout([1999])},
         "observation",
         "memory",
+    ),
+    (
+        ACTIVE,
+        {
+            "n_landmarks": 2000,
+            "width": 200.0,
+            "height": 200.0,
+            "max_range": 300.0,
+            "coverage": False,
+        },
+        "max_range",
+        "32048018000",
     ),
 ]
 
@@ -123,6 +135,27 @@ def test_the_limits_themselves_are_accepted():
     check_budget(make_config(width=100.0, height=100.0), coverage=True)
     with pytest.raises(ValueError, match="arena cells"):
         check_budget(make_config(width=100.5, height=100.0), coverage=True)
+
+
+def test_the_belief_work_counts_only_the_landmarks_a_step_can_see():
+    """2,000 landmark slots are fine with a 5 m sensor (at most (2·5/1 + 1)² = 121
+    landmarks 1 m apart in view); with a 300 m one every landmark may be in view and a
+    step could take minutes."""
+    near = make_config(n_landmarks=2000, width=200.0, height=200.0)
+    assert budget.detections_in_view(near, world_size(near)) == 121
+    check_budget(near, belief="egocentric")
+    check_budget(near, belief="full")
+    far = make_config(n_landmarks=2000, width=200.0, height=200.0, max_range=300.0)
+    assert budget.detections_in_view(far, world_size(far)) == 2000
+    with pytest.raises(ValueError, match="belief work per step"):
+        check_budget(far, belief="egocentric")
+    check_budget(
+        make_config(
+            n_landmarks=2000, width=200.0, height=200.0, max_range=300.0, max_detections=200
+        ),
+        belief="egocentric",
+    )
+    check_budget(far)  # the raw stream has no belief
 
 
 def test_a_huge_arena_without_a_grid_over_it_still_works():
@@ -207,6 +240,7 @@ LIMITS = {
     "MAX_LANDMARKS": "2,000",
     "MAX_OBSTACLES": "1,000",
     "MAX_DETECTIONS": "4,096",
+    "MAX_BELIEF_WORK": "10¹⁰",
     "MAX_ARENA_CELLS": "40,000",
     "MAX_ARENA_RADII": "10¹⁰",
     "MAX_OBSERVATION_BOUND": "10³⁷",
