@@ -154,7 +154,8 @@ class LandmarksEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         self.config = make_config(config, **options)
         cfg = self.config
         # Everything that scales work or memory, before any of it is built.
-        check_budget(cfg, world_size(cfg))
+        size = world_size(cfg)
+        check_budget(cfg, size)
 
         # A fixed world (preset or user layout) is built once; a random one at each reset.
         self._fixed_layout: Layout | None = None
@@ -170,7 +171,7 @@ class LandmarksEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
             self.n_landmarks = cfg.world.n_landmarks
             self.n_landmark_slots = cfg.world.n_landmarks
             self.arena_size = (cfg.world.width, cfg.world.height)
-        self.max_detections = cfg.sensor.max_detections or self.n_landmarks
+        self.max_detections = size.max_detections
 
         self._max_speed = cfg.robot.max_speed  # m/s at action 1.0
         self._max_turn_rate = cfg.robot.max_turn_rate  # rad/s at action 1.0
