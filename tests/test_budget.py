@@ -131,6 +131,13 @@ def test_the_limits_themselves_are_accepted():
     ):
         with pytest.raises(ValueError, match="budget"):
             check_budget(make_config(**options))
+    # A variance may reach NOISE_LIMIT², a σ NOISE_LIMIT.
+    check_budget(make_config(), filter_measurement_cov=[[1e59, 0.0], [0.0, 1.0]])
+    check_budget(make_config(range_std=budget.NOISE_LIMIT))
+    # The egocentric bound 20·max(width, height) / max_range, around its limit.
+    check_budget(make_config(max_range=4e-35), belief="egocentric")
+    with pytest.raises(ValueError, match="belief bound = 20"):
+        check_budget(make_config(max_range=2e-35), belief="egocentric")
     # 100 m × 100 m is the coverage grid's limit, in cells of 0.5 m.
     check_budget(make_config(width=100.0, height=100.0), coverage=True)
     with pytest.raises(ValueError, match="arena cells"):

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 import slam_env
-from slam_env.active_options import ACTIVE_SLAM_DEFAULTS
+from slam_env.active_options import ACTIVE_SLAM_DEFAULTS, ActiveSLAMOptions
 from slam_env.active_slam import _OWN_ARGUMENTS, ActiveSLAMEnv
 from slam_env.config import _SECTIONS, make_config, option_names
 from slam_env.env import ENV_ARGUMENTS, LandmarksEnv
@@ -202,3 +202,44 @@ def test_reset_options_are_refused_clearly_and_change_nothing(env_id, options, e
     assert digest([env.step(a) for _ in range(5)]) == digest([twin.step(a) for _ in range(5)])
     env.reset(options={})  # an empty mapping is no options
     assert slam_env.__version__
+
+
+@pytest.mark.parametrize(
+    ("options", "error", "message"),
+    [
+        ({"gate": 0.0}, ValueError, "gate must be > 0"),
+        ({"gate": "9"}, TypeError, "gate must be a number"),
+        ({"filter_measurement_cov": [[1.0, 1.0], [1.0, 1.0]]}, ValueError, "positive definite"),
+        ({"filter_measurement_cov": [[0.0, 0.0], [0.0, 1.0]]}, ValueError, "positive definite"),
+        ({"filter_measurement_cov": [[1.0, 0.0]]}, ValueError, "2×2"),
+        ({"observation": "pixels"}, ValueError, "observation must be one of"),
+        ({"correction": "ukf"}, ValueError, "correction must be one of"),
+    ],
+)
+def test_active_slam_options_are_checked(options, error, message):
+    with pytest.raises(error, match=message):
+        ActiveSLAMOptions(**options)
+
+
+def test_active_slam_options_accept_what_is_valid():
+    opts = ActiveSLAMOptions(
+        gate=np.float32(5.0), filter_measurement_cov=np.diag([0.5, 0.25]), coverage=np.bool_(0)
+    )
+    assert opts.gate == 5.0 and opts.coverage is False
+    assert opts.filter_measurement_cov == ((0.5, 0.0), (0.0, 0.25))
+
+
+@pytest.mark.parametrize(
+    ("options", "names"),
+    [
+        ({"range_std": 0.0}, "range_std and bearing_std"),
+        ({"bearing_std": 1e-200}, "range_std and bearing_std"),  # its square underflows
+        ({"measurement_model": "cartesian", "cartesian_std": 0.0}, "cartesian_std"),
+    ],
+)
+def test_a_noise_free_sensor_needs_a_filter_covariance(options, names):
+    config = make_config(**options)
+    with pytest.raises(ValueError, match=f"{names} must be > 0"):
+        ActiveSLAMOptions().check_against(config)
+    ActiveSLAMOptions(filter_measurement_cov=np.eye(2)).check_against(config)
+    ActiveSLAMOptions().check_against(make_config(range_std=1e-100, bearing_std=1e-100))
