@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from typing import Any, SupportsFloat
 
 import gymnasium as gym
@@ -11,7 +12,8 @@ from gymnasium import spaces
 from gymnasium.error import ResetNeeded
 
 from slam_env.actions import DISCRETE_PRIMITIVES, parse_action
-from slam_env.config import EnvConfig, make_config
+from slam_env.budget import check_budget, world_size
+from slam_env.config import EnvConfig, check_option_names, make_config
 from slam_env.faults import corrupt_odometry, corrupt_scan, kidnap_pose
 from slam_env.layouts import Layout, layout_for
 from slam_env.sensors import LandmarkSensor, OdometrySensor
@@ -22,6 +24,32 @@ from slam_env.world import World
 _ODOMETRY_TRANSLATION_HEADROOM = 4.0
 # Detections are clipped to the sensor's range plus this many range standard deviations.
 _RANGE_HEADROOM_STD = 6.0
+
+
+# The env's own arguments besides the config options (for the list of valid names).
+ENV_ARGUMENTS = ("config", "render_mode")
+
+
+def odometry_translation_bound(config: EnvConfig) -> float:
+    """The bound (m) of the odometry's translation reading (δtr or Δp)."""
+    return _ODOMETRY_TRANSLATION_HEADROOM * config.robot.max_speed * config.dt + 1.0
+
+
+def detection_reach(config: EnvConfig) -> float:
+    """The bound (m) of a detection's range (or robot-frame coordinates)."""
+    sensor = config.sensor
+    return sensor.max_range + _RANGE_HEADROOM_STD * max(sensor.range_std, sensor.cartesian_std)
+
+
+def check_reset_options(options: Any, env_name: str) -> None:
+    """``TypeError`` unless ``options`` is ``None`` or a mapping, ``ValueError`` unless
+    it is empty: the envs take no reset options."""
+    if options is not None and not isinstance(options, Mapping):
+        raise TypeError(
+            f"{env_name}.reset options must be a dict or None, got {type(options).__name__}"
+        )
+    if options:
+        raise ValueError(f"{env_name}.reset takes no options, got {sorted(map(str, options))}")
 
 
 def unpack_detections(obs: dict[str, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
@@ -103,7 +131,12 @@ class LandmarksEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
     ``config`` an :class:`EnvConfig`; ``options`` flat overrides of any of its fields
     (``n_landmarks=10``, ``max_range=4.0``, ``motion_model``…, see
     :func:`slam_env.config.make_config`), or a user world as ``layout=`` (a
-    :class:`Layout`, a dict, or a JSON/YAML path). Unknown options raise ``TypeError``.
+    :class:`Layout`, a dict, or a JSON/YAML path). Flat and nested forms mean the same;
+    an option given in both raises ``ValueError``, an unknown one ``TypeError``; numpy
+    scalars are taken as the Python values they hold. Every option that scales work or
+    memory is checked against :mod:`slam_env.budget` before anything is built.
+    ``reset`` takes no options. ``close`` releases the renderer; the env stays usable
+    (``step``, ``reset``, and ``render``, which reopens its window), as Gymnasium's are.
     """
 
     metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 10}
@@ -117,8 +150,12 @@ class LandmarksEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
                 f"got {render_mode!r}"
             )
         self.render_mode = render_mode
+        check_option_names(options, ENV_ARGUMENTS)
         self.config = make_config(config, **options)
         cfg = self.config
+        # Everything that scales work or memory, before any of it is built.
+        size = world_size(cfg)
+        check_budget(cfg, size)
 
         # A fixed world (preset or user layout) is built once; a random one at each reset.
         self._fixed_layout: Layout | None = None
@@ -134,7 +171,7 @@ class LandmarksEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
             self.n_landmarks = cfg.world.n_landmarks
             self.n_landmark_slots = cfg.world.n_landmarks
             self.arena_size = (cfg.world.width, cfg.world.height)
-        self.max_detections = cfg.sensor.max_detections or self.n_landmarks
+        self.max_detections = size.max_detections
 
         self._max_speed = cfg.robot.max_speed  # m/s at action 1.0
         self._max_turn_rate = cfg.robot.max_turn_rate  # rad/s at action 1.0
@@ -150,7 +187,6 @@ class LandmarksEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
 
         self._world: World | None = None
         self._renderer = None
-        self._closed = False
         self._seen = np.zeros(self.n_landmark_slots, dtype=bool)
         self._trail: list[tuple[float, float]] = []
         # The last scan (rows, IDs, z), for render_frame.
@@ -162,17 +198,14 @@ class LandmarksEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
     # ------------------------------------------------------------------ spaces
     def _build_observation_space(self) -> spaces.Dict:
         cfg = self.config
-        step_motion = cfg.robot.max_speed * cfg.dt
-        trans_bound = _ODOMETRY_TRANSLATION_HEADROOM * step_motion + 1.0
+        trans_bound = odometry_translation_bound(cfg)
         if cfg.odometry.motion_model == "odometry":
             odo_high = np.array([math.pi, trans_bound, math.pi], dtype=np.float32)
         else:
             odo_high = np.array([trans_bound, math.pi], dtype=np.float32)
         self._odometry_low, self._odometry_high = -odo_high, odo_high
 
-        reach = cfg.sensor.max_range + _RANGE_HEADROOM_STD * max(
-            cfg.sensor.range_std, cfg.sensor.cartesian_std
-        )
+        reach = detection_reach(cfg)
         d = self.max_detections
         if cfg.sensor.measurement_model == "range_bearing":
             det_low = np.tile(np.array([0.0, -math.pi], dtype=np.float32), (d, 1))
@@ -213,11 +246,8 @@ class LandmarksEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
     ) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+        check_reset_options(options, type(self).__name__)  # before the seed is applied
         super().reset(seed=seed)
-        if self._closed:
-            raise RuntimeError("reset() called on a closed LandmarksEnv; make a new env")
-        if options:
-            raise ValueError(f"LandmarksEnv.reset takes no options, got {sorted(options)}")
         cfg = self.config
         layout = self._fixed_layout or layout_for(cfg, rng=self.np_random)
         # layout_for validated the layout for this robot and wall thickness.
@@ -260,8 +290,6 @@ class LandmarksEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
     def step(
         self, action: Any
     ) -> tuple[dict[str, np.ndarray], SupportsFloat, bool, bool, dict[str, Any]]:
-        if self._closed:
-            raise RuntimeError("step() called on a closed LandmarksEnv; make a new env")
         world = self._world
         if world is None:
             raise ResetNeeded("call reset() before step()")
@@ -332,10 +360,12 @@ class LandmarksEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         return self._get_renderer().render(self.render_frame())
 
     def close(self) -> None:
+        """Release the renderer (its window, if any). As in Gymnasium's own envs the
+        episode is kept: ``step``, ``reset`` and ``render`` (which reopens what it
+        needs) still work."""
         if self._renderer is not None:
             self._renderer.close()
             self._renderer = None
-        self._closed = True
 
     # ------------------------------------------------------------------ helpers
     @property

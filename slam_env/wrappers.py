@@ -40,6 +40,10 @@ DEFAULT_GATE = chi2_gate(0.999)
 # This many gate rejections in a row, with no accepted correction between, means the
 # belief no longer explains what the robot sees.
 DIVERGENCE_REJECTIONS = 10
+# What the filter raises when its arithmetic breaks down. The wrapper feeds it only the
+# env's own stream, well-formed by construction (finite, of the right shapes, IDs in
+# range), so a ValueError from it (a math domain error, a LinAlgError) is numerical too.
+NUMERICAL_FAILURES = (ArithmeticError, ValueError)
 
 
 class EKFSLAMWrapper(gym.ObservationWrapper):
@@ -68,15 +72,18 @@ class EKFSLAMWrapper(gym.ObservationWrapper):
     the full belief.
 
     ``info`` gains, every step: ``pose_error`` (m), ``heading_error`` (rad),
-    ``map_rmse`` (m, over known landmarks; nan before the first), ``pose_nees``,
+    ``map_rmse`` (m, over known landmarks; absent before the first, as an undefined
+    metric is: never NaN, so equal runs give equal infos), ``pose_nees``,
     ``landmarks_known``, ``rejected`` (observations the gate refused this episode),
     ``entropy`` (nats, see :meth:`belief_entropy`), ``pose_std`` (m, √trace of the
     position covariance), ``belief_clipped`` (the belief left the observation's
     bounds), ``consecutive_rejections`` (observations of known landmarks the gate has
     refused in a row) and ``diverged``: the filter has lost track, because the belief
-    was clipped, a correction failed numerically (it is then skipped, never applied as
-    NaN), or the gate refused ``DIVERGENCE_REJECTIONS`` observations in a row (after a
-    kidnapping, every landmark is where the belief says it cannot be).
+    was clipped, a prediction or correction failed numerically (it is then skipped,
+    never applied as NaN, and never raised out of ``step``), or the gate refused
+    ``DIVERGENCE_REJECTIONS`` observations in a row (after a kidnapping, every
+    landmark is where the belief says it cannot be). ``pose_nees`` is absent, like
+    ``map_rmse``, in the one case it is undefined (a covariance gone non-finite).
 
     The encoding, the diagnostics and the entropy are computed by the belief kernels
     (:mod:`slam_env.kernels`) on the filter's belief as a batch of one.
@@ -172,7 +179,10 @@ class EKFSLAMWrapper(gym.ObservationWrapper):
 
     def step(self, action: Any) -> tuple[Any, SupportsFloat, bool, bool, dict[str, Any]]:
         raw, reward, terminated, truncated, info = self.env.step(action)
-        self.filter.predict(raw["odometry"])
+        try:
+            self.filter.predict(raw["odometry"])
+        except NUMERICAL_FAILURES:
+            self._numerical_failure = True  # the belief has diverged: report it
         self._correct(raw)
         obs, info = self._observe(raw, info)
         return obs, reward, terminated, truncated, info
@@ -238,7 +248,7 @@ class EKFSLAMWrapper(gym.ObservationWrapper):
         z, ids = unpack_detections(raw)
         try:
             result = self.filter.update(z, ids)
-        except FloatingPointError:
+        except NUMERICAL_FAILURES:
             # The filter refused an update that would break Σ (and left itself as it
             # was): the belief has diverged; report it rather than hand out NaN.
             self._numerical_failure = True
@@ -263,8 +273,12 @@ class EKFSLAMWrapper(gym.ObservationWrapper):
         self._entropy.batch(belief.P, belief.n, self._entropy_out, self._entropy_ok)
         info["pose_error"] = pose_error
         info["heading_error"] = heading_error
-        info["map_rmse"] = map_rmse
-        info["pose_nees"] = pose_nees
+        # Undefined metrics are absent, never NaN: the map error before the first
+        # landmark, the NEES of a covariance gone non-finite.
+        if not math.isnan(map_rmse):
+            info["map_rmse"] = map_rmse
+        if not math.isnan(pose_nees):
+            info["pose_nees"] = pose_nees
         info["landmarks_known"] = f.n_landmarks
         info["rejected"] = f.n_rejected
         info["entropy"] = self._entropy_out.item()
