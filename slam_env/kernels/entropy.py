@@ -46,9 +46,10 @@ def belief_entropy(
     in the state) over all ``slots`` landmark slots, for Σ + ``floor``·I.
 
     The log det comes from a Cholesky factor of the live block's lower triangle,
-    factored in ``scratch`` (at least (dmax, dmax) float64, overwritten). Where Σ + floor·I is
-    not positive definite (round-off), ``ok[b]`` is False and ``entropy[b]`` NaN: the
-    caller finishes that world (eigenvalues need LAPACK, which kernels do without).
+    factored in ``scratch`` (at least (dmax, dmax) float64, overwritten). Where
+    Σ + floor·I is not positive definite (round-off), ``ok[b]`` is False and
+    ``entropy[b]`` NaN: the caller finishes that world (eigenvalues need LAPACK,
+    which kernels do without).
     """
     for b in range(P.shape[0]):
         d = 3 + 2 * n[b]
