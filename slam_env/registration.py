@@ -12,6 +12,7 @@ def register_envs() -> None:
         gym.register(
             id="slam_env/Landmarks-v0",
             entry_point="slam_env.env:LandmarksEnv",
+            vector_entry_point="slam_env.vector:LandmarksVectorEnv",
             max_episode_steps=DEFAULT_MAX_EPISODE_STEPS,
         )
     if "slam_env/ActiveSLAM-v0" not in gym.registry:

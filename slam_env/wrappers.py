@@ -215,7 +215,7 @@ class EKFSLAMWrapper(gym.ObservationWrapper):
 
     def render(self) -> Any:
         base = self.env.unwrapped
-        if base.render_mode is not None and base._world is not None:
+        if base.render_mode is not None and base._started:
             base.belief_overlay = self.belief_overlay()
         return self.env.render()
 

@@ -1,0 +1,230 @@
+"""The landmark sensor and the proximity scan of B worlds.
+
+One scan of one world, in this order (see :class:`slam_env.sensors.LandmarkSensor`
+for the model):
+
+1. *Range and field of view*, in ascending landmark-ID order: the true range
+   ``r ≤ max_range`` and the true bearing ``|φ| ≤ fov / 2`` (both inclusive; a full
+   circle sees all around).
+2. *Detection probability*: the j-th landmark in ID order is kept when its uniform
+   ``u[j] < p`` (not read when p = 1), so the draws do not depend on the row order.
+3. *Occlusion*: the line of sight from the robot to the landmark, blocked by walls,
+   obstacles and other landmarks' posts (exact geometry, :mod:`.geometry`).
+4. *max_detections*: the nearest ones are kept (true range, ties by ID), still in ID
+   order.
+5. *Noise*: detection j gets the normal pair of uniforms ``2j, 2j + 1`` (Box–Muller),
+   scaled by the standard deviations; none is drawn when they are both zero.
+
+A scan consumes :func:`scan_uniforms` uniforms, whatever it finds, so that a step
+always consumes the same number from each sub-env's stream.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import NamedTuple
+
+import numpy as np
+
+from slam_env.kernels import kernel
+from slam_env.kernels.angles import wrap
+from slam_env.kernels.geometry import Geometry, line_of_sight, ray_fraction
+from slam_env.kernels.random import normal_pair
+
+
+class SensorParams(NamedTuple):
+    """The landmark sensor's constants, as the kernels take them."""
+
+    max_range: float  # m
+    half_fov: float  # rad, half the opening angle
+    all_around: bool  # the field of view is a full circle
+    detection_prob: float  # in (0, 1]
+    max_detections: int  # rows of the padded output, D
+    cartesian: bool  # z = R(θ)ᵀ(m − t) instead of [r, φ]
+    std0: float  # σr (m), or σz (m) for the cartesian model
+    std1: float  # σφ (rad), or σz (m)
+
+
+def scan_uniforms(n_landmarks: int, max_detections: int) -> int:
+    """Uniforms one scan consumes: one per landmark (detection probability), then two
+    per output row (the noise of one detection)."""
+    return n_landmarks + 2 * max_detections
+
+
+@kernel
+def in_view(
+    x: float,
+    y: float,
+    theta: float,
+    landmarks: np.ndarray,
+    id_order: np.ndarray,
+    params: SensorParams,
+    uniforms: np.ndarray,
+    rows: np.ndarray,
+    found: np.ndarray,
+) -> int:
+    """Steps 1 and 2 for the pose (x, y, θ): the rows of the landmarks in range, in
+    view and detected, in ID order, into ``rows``, with their true (r, φ, robot-frame
+    x, robot-frame y) into ``found``; returns how many."""
+    c, s = math.cos(theta), math.sin(theta)
+    p = params.detection_prob
+    k = 0
+    for j in range(id_order.shape[0]):
+        i = id_order[j]
+        dx = landmarks[i, 0] - x
+        dy = landmarks[i, 1] - y
+        lx = c * dx + s * dy  # R(θ)ᵀ (m − t): computed in the robot frame, the bearing
+        ly = c * dy - s * dx  # has no cancellation from subtracting θ
+        r = math.hypot(lx, ly)
+        if not r <= params.max_range:
+            continue
+        phi = math.atan2(ly, lx)
+        if not params.all_around and not (-params.half_fov <= phi <= params.half_fov):
+            continue
+        if p < 1.0 and not uniforms[j] < p:
+            continue
+        rows[k] = i
+        found[k, 0] = r
+        found[k, 1] = phi
+        found[k, 2] = lx
+        found[k, 3] = ly
+        k += 1
+    return k
+
+
+@kernel
+def _keep(rows: np.ndarray, found: np.ndarray, j: int, k: int) -> None:
+    """Move candidate j to position k (k ≤ j): compaction in place."""
+    rows[k] = rows[j]
+    for c in range(4):
+        found[k, c] = found[j, c]
+
+
+@kernel
+def _nearest_first_rank(found: np.ndarray, k: int, j: int) -> int:
+    """How many of the k candidates come before candidate j by (range, ID order)."""
+    r = found[j, 0]
+    rank = 0
+    for m in range(k):
+        if found[m, 0] < r or (found[m, 0] == r and m < j):
+            rank += 1
+    return rank
+
+
+@kernel
+def emit_detections(
+    rows: np.ndarray,
+    found: np.ndarray,
+    k: int,
+    params: SensorParams,
+    uniforms: np.ndarray,
+    ids: np.ndarray,
+    out_z: np.ndarray,
+    out_ids: np.ndarray,
+    out_rows: np.ndarray,
+) -> int:
+    """Steps 4 and 5: the detections of the k visible candidates into the outputs (D
+    rows, ID order); returns the count."""
+    limit = params.max_detections
+    noisy = params.std0 > 0.0 or params.std1 > 0.0
+    n = 0
+    for j in range(k):
+        if k > limit and _nearest_first_rank(found, k, j) >= limit:
+            continue
+        e0, e1 = 0.0, 0.0
+        if noisy:
+            e0, e1 = normal_pair(uniforms[2 * n], uniforms[2 * n + 1])
+        if params.cartesian:
+            out_z[n, 0] = found[j, 2] + e0 * params.std0
+            out_z[n, 1] = found[j, 3] + e1 * params.std1
+        else:
+            # The noisy range is not clipped at 0 (that would bias it); the noisy
+            # bearing is wrapped again.
+            out_z[n, 0] = found[j, 0] + e0 * params.std0
+            out_z[n, 1] = wrap(found[j, 1] + e1 * params.std1)
+        out_rows[n] = rows[j]
+        out_ids[n] = ids[rows[j]]
+        n += 1
+    return n
+
+
+@kernel
+def sense_landmarks(
+    poses: np.ndarray,
+    landmarks: np.ndarray,
+    landmark_ids: np.ndarray,
+    id_order: np.ndarray,
+    geometry: Geometry,
+    params: SensorParams,
+    uniforms: np.ndarray,
+    offset: int,
+    active: np.ndarray,
+    out_z: np.ndarray,
+    out_ids: np.ndarray,
+    out_rows: np.ndarray,
+    out_count: np.ndarray,
+) -> None:
+    """One scan of each active world b from ``poses[b]``.
+
+    Args:
+        poses: (B, 3) true poses (x, y, θ).
+        landmarks: (B, N, 2) landmark positions; landmark_ids (B, N) their IDs;
+            id_order (B, N) the rows in ascending ID order (stable).
+        geometry: the static geometry of the B worlds (post i of world b is landmark
+            row i).
+        params: the sensor's constants.
+        uniforms: (B, W) this step's uniforms; the scan reads columns
+            ``offset : offset + scan_uniforms(N, D)``.
+        active: (B,) the worlds to scan; the others' outputs are left as they are.
+        out_z: (B, D, 2) measurements; out_ids (B, D) IDs; out_rows (B, D) landmark
+            rows; out_count (B,) detections per world, first in each row block.
+    """
+    n_rows = landmarks.shape[1]
+    rows = np.empty(n_rows, dtype=np.int64)
+    found = np.empty((n_rows, 4))
+    for b in range(poses.shape[0]):
+        if not active[b]:
+            continue
+        x, y, theta = poses[b, 0], poses[b, 1], poses[b, 2]
+        u = uniforms[b, offset:]
+        k = in_view(x, y, theta, landmarks[b], id_order[b], params, u, rows, found)
+        visible = 0
+        for j in range(k):
+            i = rows[j]
+            if line_of_sight(geometry, b, x, y, landmarks[b, i, 0], landmarks[b, i, 1], i):
+                _keep(rows, found, j, visible)
+                visible += 1
+        out_count[b] = emit_detections(
+            rows,
+            found,
+            visible,
+            params,
+            u[n_rows:],
+            landmark_ids[b],
+            out_z[b],
+            out_ids[b],
+            out_rows[b],
+        )
+
+
+@kernel
+def proximity_scan(
+    poses: np.ndarray,
+    geometry: Geometry,
+    beam_angles: np.ndarray,
+    reach: float,
+    active: np.ndarray,
+    out: np.ndarray,
+) -> None:
+    """The free fraction of each beam, in [0, 1]: out (B, beams) float32, beam k at
+    ``beam_angles[k]`` (rad, robot frame) from the robot's centre, ``reach`` m long,
+    stopped by the first wall, obstacle or post."""
+    for b in range(poses.shape[0]):
+        if not active[b]:
+            continue
+        x, y, theta = poses[b, 0], poses[b, 1], poses[b, 2]
+        for k in range(beam_angles.shape[0]):
+            a = theta + beam_angles[k]
+            ex = x + reach * math.cos(a)
+            ey = y + reach * math.sin(a)
+            out[b, k] = ray_fraction(geometry, b, x, y, ex, ey)
