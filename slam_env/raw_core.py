@@ -20,7 +20,7 @@ from slam_env.kernels.faults import (
     corrupt_odometry,
     corrupt_scans,
 )
-from slam_env.kernels.observe import RawParams, RawOutputs, observe_raw
+from slam_env.kernels.observe import RawOutputs, RawParams, observe_raw
 from slam_env.kernels.odometry import odometry_uniforms, read_odometry
 from slam_env.kernels.sensing import (
     SensorParams,

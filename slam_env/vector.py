@@ -89,7 +89,9 @@ class SlamVectorEnv(VectorEnv):
             or not isinstance(max_episode_steps, (int, np.integer))
             or max_episode_steps < 1
         ):
-            raise ValueError(f"max_episode_steps must be an int >= 1 or None, got {max_episode_steps!r}")
+            raise ValueError(
+                f"max_episode_steps must be an int >= 1 or None, got {max_episode_steps!r}"
+            )
         mode = AutoresetMode(autoreset_mode)
         if mode not in AUTORESET_MODES:
             raise ValueError(f"autoreset_mode must be one of {AUTORESET_MODES}, got {mode}")
@@ -165,9 +167,7 @@ class SlamVectorEnv(VectorEnv):
             if self._renderers[index] is not None:
                 self._renderers[index].set_layout(layout)
 
-    def step(
-        self, actions: Any
-    ) -> tuple[Any, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
+    def step(self, actions: Any) -> tuple[Any, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
         if not self._started:
             raise ResetNeeded("call reset() before step()")
         core = self.core

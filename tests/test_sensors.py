@@ -728,9 +728,11 @@ def test_perturb_is_bitwise_its_documented_formula(model):
         r1, r2 = RNG(t), RNG(t)
         out = sensor.perturb(u, r1)
         w = r2.random(4 if model == "odometry" else 2).tolist()
-        e = [*box_muller(w[0], w[1]), *box_muller(*w[2:])] if model == "odometry" else [
-            *box_muller(w[0], w[1])
-        ]
+        e = (
+            [*box_muller(w[0], w[1]), *box_muller(*w[2:])]
+            if model == "odometry"
+            else [*box_muller(w[0], w[1])]
+        )
         std = np.sqrt(np.diagonal(sensor.noise_cov(u))).tolist()
         expected = [ui + si * ei for ui, si, ei in zip(u.tolist(), std, e, strict=False)]
         for i in sensor.angle_indices:

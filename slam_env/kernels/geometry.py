@@ -47,11 +47,20 @@ def set_world(geometry: Geometry, b: int, layout, wall_thickness: float, post_ra
     V = max(geometry.polygons.shape[2], max((len(p) for p in polys), default=0))
     C = max(geometry.circles.shape[1], len(circs))
     g = geometry
-    if (S, P, V, C) != (g.segments.shape[1], g.polygons.shape[1], g.polygons.shape[2], g.circles.shape[1]):
-        seg = np.zeros((B, S, 5)); seg[:, : g.segments.shape[1]] = g.segments
-        pol = np.zeros((B, P, V, 2)); pol[:, : g.polygons.shape[1], : g.polygons.shape[2]] = g.polygons
-        psz = np.zeros((B, P), dtype=np.int64); psz[:, : g.polygon_sizes.shape[1]] = g.polygon_sizes
-        cir = np.zeros((B, C, 3)); cir[:, : g.circles.shape[1]] = g.circles
+    if (g.segments.shape[1], g.polygons.shape[1], g.polygons.shape[2], g.circles.shape[1]) != (
+        S,
+        P,
+        V,
+        C,
+    ):
+        seg = np.zeros((B, S, 5))
+        seg[:, : g.segments.shape[1]] = g.segments
+        pol = np.zeros((B, P, V, 2))
+        pol[:, : g.polygons.shape[1], : g.polygons.shape[2]] = g.polygons
+        psz = np.zeros((B, P), dtype=np.int64)
+        psz[:, : g.polygon_sizes.shape[1]] = g.polygon_sizes
+        cir = np.zeros((B, C, 3))
+        cir[:, : g.circles.shape[1]] = g.circles
         g = Geometry(seg, g.n_segments, pol, psz, g.n_polygons, cir, g.n_circles)
     g.segments[b, : len(segs)] = segs
     g.n_segments[b] = len(segs)
@@ -121,7 +130,10 @@ def _first_hit(g, b, ax, ay, bx, by, skip) -> float:
     for k in range(g.n_circles[b]):
         if k == skip:
             continue
-        best = min(best, _ray_circle(ax, ay, dx, dy, g.circles[b, k, 0], g.circles[b, k, 1], g.circles[b, k, 2]))
+        best = min(
+            best,
+            _ray_circle(ax, ay, dx, dy, g.circles[b, k, 0], g.circles[b, k, 1], g.circles[b, k, 2]),
+        )
     return best
 
 
