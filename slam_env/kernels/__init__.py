@@ -34,7 +34,7 @@ from typing import TypeVar
 
 import numba
 
-__all__ = ["KernelCacheWarning", "kernel"]
+__all__ = ["KERNELS", "KernelCacheWarning", "kernel"]
 
 F = TypeVar("F", bound=Callable)
 
@@ -45,6 +45,9 @@ class KernelCacheWarning(UserWarning):
 
 _warned = False
 
+KERNELS: list = []
+"""The dispatchers of every kernel defined so far, for checking what was compiled."""
+
 
 def kernel(fn: F) -> F:
     """``numba.njit(cache=True, nogil=True)``, falling back to an uncached compile
@@ -52,7 +55,7 @@ def kernel(fn: F) -> F:
     writable, e.g. a read-only install without ``NUMBA_CACHE_DIR``."""
     global _warned
     try:
-        return numba.njit(cache=True, nogil=True)(fn)
+        compiled = numba.njit(cache=True, nogil=True)(fn)
     except RuntimeError as exc:  # numba: "cannot cache function ...: no locator available"
         if not _warned:
             _warned = True
@@ -62,4 +65,6 @@ def kernel(fn: F) -> F:
                 KernelCacheWarning,
                 stacklevel=2,
             )
-        return numba.njit(cache=False, nogil=True)(fn)
+        compiled = numba.njit(cache=False, nogil=True)(fn)
+    KERNELS.append(compiled)
+    return compiled
