@@ -167,7 +167,12 @@ class RawCore:
             np.zeros(b),
         )
         self.terminated = np.zeros(b, dtype=bool)
-        self._one = np.eye(b, dtype=bool)  # the active mask of one sub-env
+        self._one = np.eye(b, dtype=bool)
+        # The kernels' grouped arguments as plain tuples (see slam_env.kernels).
+        self._sensor_fields = tuple(self._sensor)
+        self._fault_fields = tuple(self._faults)
+        self._params_fields = tuple(self._params)
+        self._out_fields = tuple(self.out)  # the active mask of one sub-env
 
     # ------------------------------------------------------------------ stepping
     def reset(self, index: int, rng: np.random.Generator) -> Layout:
@@ -237,8 +242,8 @@ class RawCore:
             worlds.landmarks,
             worlds.landmark_ids,
             worlds.id_order,
-            worlds.geometry,
-            self._sensor,
+            tuple(worlds.geometry),
+            self._sensor_fields,
             uniforms,
             self._scan_offset,
             active,
@@ -249,7 +254,7 @@ class RawCore:
         )
         if self.faults_on:
             corrupt_scans(
-                self._faults,
+                self._fault_fields,
                 self.seen,
                 uniforms,
                 self._fault_offset,
@@ -262,7 +267,7 @@ class RawCore:
         if self._beam_angles.size:
             reach = float(self.config.sensor.scan_range)
             proximity_scan(
-                worlds.poses, worlds.geometry, self._beam_angles, reach, active, self.scan
+                worlds.poses, tuple(worlds.geometry), self._beam_angles, reach, active, self.scan
             )
 
     def _observe(self, active: np.ndarray) -> None:
@@ -273,10 +278,10 @@ class RawCore:
             self.det_count,
             self.collided,
             self.worlds.landmark_ids,
-            self._params,
+            self._params_fields,
             active,
             self.seen,
-            self.out,
+            self._out_fields,
         )
 
     # ------------------------------------------------------------------ reading

@@ -30,7 +30,7 @@ class FaultParams(NamedTuple):
 
 @kernel
 def corrupt_scans(
-    params: FaultParams,
+    params_fields: tuple,
     seen: np.ndarray,
     uniforms: np.ndarray,
     offset: int,
@@ -45,7 +45,9 @@ def corrupt_scans(
     reported with the ID of a landmark seen earlier in the episode (``seen`` (B, M))
     but not in this scan — a wrong association a χ² gate should reject. It is inserted
     in ID order with row −1, when the scan has a free row. Edits z (B, D, 2), ids
-    (B, D), rows (B, D) and count (B,) in place."""
+    (B, D), rows (B, D) and count (B,) in place. ``params_fields``: the fields of a
+    :class:`FaultParams`, a plain tuple."""
+    params = FaultParams(*params_fields)
     for b in range(count.shape[0]):
         if not active[b]:
             continue

@@ -50,14 +50,18 @@ def observe_raw(
     count: np.ndarray,
     collided: np.ndarray,
     landmark_ids: np.ndarray,
-    params: RawParams,
+    params_fields: tuple,
     active: np.ndarray,
     seen: np.ndarray,
-    out: RawOutputs,
+    out_fields: tuple,
 ) -> None:
     """The raw observation of each active world from its odometry reading
     ``control`` (B, c), its detections (z (B, D, 2), ids (B, D), count (B,)) and its
-    collision flag; marks the detected IDs in ``seen`` (B, M) and pays the new ones."""
+    collision flag; marks the detected IDs in ``seen`` (B, M) and pays the new ones.
+    ``params_fields`` and ``out_fields`` are the fields of a :class:`RawParams` and a
+    :class:`RawOutputs`, as plain tuples (see :mod:`slam_env.kernels`)."""
+    params = RawParams(*params_fields)
+    out = RawOutputs(*out_fields)
     for b in range(control.shape[0]):
         if not active[b]:
             continue

@@ -154,8 +154,8 @@ def sense_landmarks(
     landmarks: np.ndarray,
     landmark_ids: np.ndarray,
     id_order: np.ndarray,
-    geometry: Geometry,
-    params: SensorParams,
+    geometry_fields: tuple,
+    params_fields: tuple,
     uniforms: np.ndarray,
     offset: int,
     active: np.ndarray,
@@ -170,15 +170,17 @@ def sense_landmarks(
         poses: (B, 3) true poses (x, y, θ).
         landmarks: (B, N, 2) landmark positions; landmark_ids (B, N) their IDs;
             id_order (B, N) the rows in ascending ID order (stable).
-        geometry: the static geometry of the B worlds (post i of world b is landmark
-            row i).
-        params: the sensor's constants.
+        geometry_fields: the fields of the B worlds' :class:`Geometry` (post i of
+            world b is landmark row i), as a plain tuple (see :mod:`slam_env.kernels`).
+        params_fields: the fields of the :class:`SensorParams`, a plain tuple.
         uniforms: (B, W) this step's uniforms; the scan reads columns
             ``offset : offset + scan_uniforms(N, D)``.
         active: (B,) the worlds to scan; the others' outputs are left as they are.
         out_z: (B, D, 2) measurements; out_ids (B, D) IDs; out_rows (B, D) landmark
             rows; out_count (B,) detections per world, first in each row block.
     """
+    geometry = Geometry(*geometry_fields)
+    params = SensorParams(*params_fields)
     n_rows = landmarks.shape[1]
     rows = np.empty(n_rows, dtype=np.int64)
     found = np.empty((n_rows, 4))
@@ -210,7 +212,7 @@ def sense_landmarks(
 @kernel
 def proximity_scan(
     poses: np.ndarray,
-    geometry: Geometry,
+    geometry_fields: tuple,
     beam_angles: np.ndarray,
     reach: float,
     active: np.ndarray,
@@ -218,7 +220,9 @@ def proximity_scan(
 ) -> None:
     """The free fraction of each beam, in [0, 1]: out (B, beams) float32, beam k at
     ``beam_angles[k]`` (rad, robot frame) from the robot's centre, ``reach`` m long,
-    stopped by the first wall, obstacle or post."""
+    stopped by the first wall, obstacle or post (``geometry_fields``: the fields of the
+    :class:`Geometry`, a plain tuple)."""
+    geometry = Geometry(*geometry_fields)
     for b in range(poses.shape[0]):
         if not active[b]:
             continue
