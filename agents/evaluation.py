@@ -281,6 +281,11 @@ def run_episode(
     def col(key: str, dtype: Any = np.float64) -> np.ndarray:
         return np.array([r[key] for r in rows], dtype=dtype)
 
+    def metric(key: str) -> np.ndarray:
+        # The env leaves an undefined metric out of info; here it is NaN, which the
+        # aggregation leaves out of the means.
+        return np.array([r.get(key, math.nan) for r in rows], dtype=np.float64)
+
     return EpisodeRecord(
         seed=seed,
         n_landmarks=int(raw.n_landmarks),
@@ -289,8 +294,8 @@ def run_episode(
         entropy=col("entropy"),
         landmarks_known=col("landmarks_known"),
         pose_error=col("pose_error"),
-        pose_nees=col("pose_nees"),
-        map_rmse=col("map_rmse"),
+        pose_nees=metric("pose_nees"),
+        map_rmse=metric("map_rmse"),
         collision=col("collision", bool),
         rewards=np.asarray(rewards, dtype=np.float64),
         layout=raw.layout,

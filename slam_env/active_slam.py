@@ -10,15 +10,19 @@ Users who want the wrappers on their own env use them directly.
 
 from __future__ import annotations
 
+import inspect
 from collections.abc import Mapping
 from typing import Any, SupportsFloat
 
 import gymnasium as gym
 import numpy as np
 
+from slam_env.active_options import ACTIVE_SLAM_DEFAULTS, DEFAULT_SCAN_BEAMS, ActiveSLAMOptions
+from slam_env.budget import check_budget, world_size
+from slam_env.config import check_option_names, make_config, with_defaults
 from slam_env.coverage import CoverageWrapper
 from slam_env.ekf import EKFSLAM
-from slam_env.env import LandmarksEnv
+from slam_env.env import ENV_ARGUMENTS, LandmarksEnv, check_reset_options
 from slam_env.wrappers import (
     DEFAULT_GATE,
     ActiveSLAMReward,
@@ -26,8 +30,7 @@ from slam_env.wrappers import (
     EKFSLAMWrapper,
 )
 
-# Proximity beams in the active-SLAM observation, unless the options set them.
-DEFAULT_SCAN_BEAMS = 16
+__all__ = ["DEFAULT_SCAN_BEAMS", "ActiveSLAMEnv"]
 
 
 class ActiveSLAMEnv(gym.Env):
@@ -52,7 +55,20 @@ class ActiveSLAMEnv(gym.Env):
     hold, and to feel when one blocks it (a corner can hide between two beams). The
     egocentric observation is the belief features, then the scan and the bumper, then
     the coverage features; the full one holds them as the ``scan``, ``bumper`` and
-    ``coverage`` keys.
+    ``coverage`` keys. These defaults hold whichever form the world's options take
+    (``fov=2.5`` or ``sensor={"fov": 2.5}``); a whole ``config`` is taken as it is.
+    Options are checked (types, numpy scalars, the resource budget of
+    :mod:`slam_env.budget`) before anything is built.
+
+    ## Info
+    The raw env's, then the belief's diagnostics (see
+    :class:`slam_env.wrappers.EKFSLAMWrapper`), ``swept_fraction`` and the reward
+    terms. A numerical breakdown of the filter is reported as ``diverged``, never
+    raised out of ``step``. ``info`` never holds NaN: a metric that is undefined is
+    absent, so ``map_rmse`` appears with the first landmark in the belief (read it with
+    ``info.get``). Absent rather than a sentinel: equal runs give equal infos, no
+    made-up value slips into an average, and Gymnasium's vector envs mark the sub-envs
+    that did not report it (``info["_map_rmse"]``).
     """
 
     metadata = LandmarksEnv.metadata
@@ -70,34 +86,45 @@ class ActiveSLAMEnv(gym.Env):
         coverage: bool = True,
         **env_options: Any,
     ) -> None:
-        if isinstance(reward_weights, Mapping):
-            valid = ActiveSLAMRewardWeights.__dataclass_fields__
-            unknown = sorted(set(reward_weights) - set(valid))
-            if unknown:
-                raise TypeError(f"unknown reward_weights {unknown}; valid: {sorted(valid)}")
-            reward_weights = ActiveSLAMRewardWeights(**reward_weights)
-        # A policy must see obstacles, which the landmark map does not hold, and feel
-        # when one blocks it (a corner can hide between two beams).
-        if not {"config", "sensor", "scan_beams"} & set(env_options):
-            env_options["scan_beams"] = DEFAULT_SCAN_BEAMS
-        if not {"config", "sensor", "bumper"} & set(env_options):
-            env_options["bumper"] = True
-        self.raw_env = LandmarksEnv(render_mode=render_mode, **env_options)
+        opts = ActiveSLAMOptions(
+            observation,
+            correction,
+            gate,
+            filter_alphas,
+            filter_control_noise,
+            filter_measurement_cov,
+            reward_weights,
+            coverage,
+        )
+        check_option_names(env_options, ENV_ARGUMENTS + _OWN_ARGUMENTS)
+        env_options = with_defaults(env_options, ACTIVE_SLAM_DEFAULTS)
+        config = make_config(env_options.pop("config", None), **env_options)
+        # Everything that scales work or memory, before any of it is built.
+        check_budget(
+            config,
+            world_size(config),
+            belief=opts.observation,
+            coverage=opts.coverage,
+            filter_alphas=opts.filter_alphas,
+            filter_control_noise=opts.filter_control_noise,
+            filter_measurement_cov=opts.filter_measurement_cov,
+            reward_weights=vars(opts.weights),
+        )
+        opts.check_against(config)
+        self.raw_env = LandmarksEnv(render_mode=render_mode, config=config)
         self.belief_wrapper = EKFSLAMWrapper(
             self.raw_env,
-            observation=observation,
-            correction=correction,
-            gate=gate,
-            alphas=filter_alphas,
-            control_noise=filter_control_noise,
-            measurement_cov=filter_measurement_cov,
+            observation=opts.observation,
+            correction=opts.correction,
+            gate=opts.gate,
+            alphas=opts.filter_alphas,
+            control_noise=opts.filter_control_noise,
+            measurement_cov=opts.filter_measurement_cov,
         )
-        if not isinstance(coverage, bool):
-            raise TypeError(f"coverage must be a bool, got {coverage!r}")
         belief: gym.Env = self.belief_wrapper
-        if coverage:
+        if opts.coverage:
             belief = CoverageWrapper(belief)
-        self._stack = ActiveSLAMReward(belief, reward_weights)
+        self._stack = ActiveSLAMReward(belief, opts.weights)
         self.render_mode = render_mode
         self.observation_space = self._stack.observation_space
         self.action_space = self._stack.action_space
@@ -114,6 +141,7 @@ class ActiveSLAMEnv(gym.Env):
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
     ) -> tuple[Any, dict[str, Any]]:
+        check_reset_options(options, type(self).__name__)  # before the seed is applied
         super().reset(seed=seed)
         obs, info = self._stack.reset(seed=seed, options=options)
         # One random stream for the whole stack: the raw env's.
@@ -129,3 +157,11 @@ class ActiveSLAMEnv(gym.Env):
     def close(self) -> None:
         self._stack.close()
         super().close()
+
+
+# ActiveSLAMEnv's own arguments, for the list of valid names in errors.
+_OWN_ARGUMENTS = tuple(
+    name
+    for name, p in inspect.signature(ActiveSLAMEnv.__init__).parameters.items()
+    if name != "self" and p.kind is p.POSITIONAL_OR_KEYWORD
+)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from typing import Any, SupportsFloat
 
 import gymnasium as gym
@@ -10,11 +11,27 @@ from gymnasium import spaces
 from gymnasium.error import ResetNeeded
 
 from slam_env.actions import DISCRETE_PRIMITIVES, parse_action
-from slam_env.config import EnvConfig, make_config
+from slam_env.budget import check_budget, world_size
+from slam_env.config import EnvConfig, check_option_names, make_config
 from slam_env.layouts import Layout
 from slam_env.raw_core import RawCore
 from slam_env.sensors import LandmarkSensor, OdometrySensor
 from slam_env.world import World
+
+
+# The env's own arguments besides the config options (for the list of valid names).
+ENV_ARGUMENTS = ("config", "render_mode")
+
+
+def check_reset_options(options: Any, env_name: str) -> None:
+    """``TypeError`` unless ``options`` is ``None`` or a mapping, ``ValueError`` unless
+    it is empty: the envs take no reset options."""
+    if options is not None and not isinstance(options, Mapping):
+        raise TypeError(
+            f"{env_name}.reset options must be a dict or None, got {type(options).__name__}"
+        )
+    if options:
+        raise ValueError(f"{env_name}.reset takes no options, got {sorted(map(str, options))}")
 
 
 def unpack_detections(obs: dict[str, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
@@ -96,7 +113,12 @@ class LandmarksEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
     ``config`` an :class:`EnvConfig`; ``options`` flat overrides of any of its fields
     (``n_landmarks=10``, ``max_range=4.0``, ``motion_model``…, see
     :func:`slam_env.config.make_config`), or a user world as ``layout=`` (a
-    :class:`Layout`, a dict, or a JSON/YAML path). Unknown options raise ``TypeError``.
+    :class:`Layout`, a dict, or a JSON/YAML path). Flat and nested forms mean the same;
+    an option given in both raises ``ValueError``, an unknown one ``TypeError``; numpy
+    scalars are taken as the Python values they hold. Every option that scales work or
+    memory is checked against :mod:`slam_env.budget` before anything is built.
+    ``reset`` takes no options. ``close`` releases the renderer; the env stays usable
+    (``step``, ``reset``, and ``render``, which reopens its window), as Gymnasium's are.
     """
 
     metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 10}
@@ -110,7 +132,10 @@ class LandmarksEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
                 f"got {render_mode!r}"
             )
         self.render_mode = render_mode
+        check_option_names(options, ENV_ARGUMENTS)
         self.config = make_config(config, **options)
+        # Everything that scales work or memory, before any of it is built.
+        check_budget(self.config, world_size(self.config))
         # A batch of one: the native vector env runs the same core for B sub-envs.
         self._core = RawCore(self.config, 1)
         core = self._core
@@ -131,7 +156,6 @@ class LandmarksEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         self._active = np.ones(1, dtype=bool)
         self._started = False
         self._renderer = None
-        self._closed = False
         self._trail: list[tuple[float, float]] = []
         # Drawn over the world by render(); the EKF-SLAM wrapper sets it.
         self.belief_overlay = None
@@ -140,11 +164,8 @@ class LandmarksEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
     ) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+        check_reset_options(options, type(self).__name__)  # before the seed is applied
         super().reset(seed=seed)
-        if self._closed:
-            raise RuntimeError("reset() called on a closed LandmarksEnv; make a new env")
-        if options:
-            raise ValueError(f"LandmarksEnv.reset takes no options, got {sorted(options)}")
         core = self._core
         layout = core.reset(0, self.np_random)
         self._started = True
@@ -161,8 +182,6 @@ class LandmarksEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
     def step(
         self, action: Any
     ) -> tuple[dict[str, np.ndarray], SupportsFloat, bool, bool, dict[str, Any]]:
-        if self._closed:
-            raise RuntimeError("step() called on a closed LandmarksEnv; make a new env")
         if not self._started:
             raise ResetNeeded("call reset() before step()")
         speed_frac, turn_frac = parse_action(action, self.action_space)
@@ -191,10 +210,12 @@ class LandmarksEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         return self._get_renderer().render(self.render_frame())
 
     def close(self) -> None:
+        """Release the renderer (its window, if any). As in Gymnasium's own envs the
+        episode is kept: ``step``, ``reset`` and ``render`` (which reopens what it
+        needs) still work."""
         if self._renderer is not None:
             self._renderer.close()
             self._renderer = None
-        self._closed = True
 
     # ------------------------------------------------------------------ helpers
     @property

@@ -41,19 +41,29 @@ RANGE_HEADROOM_STD = 6.0
 OUTLIER_MIN_RANGE = 0.5
 
 
+def odometry_translation_bound(config: EnvConfig) -> float:
+    """The bound (m) of the odometry's translation reading (δtr or Δp)."""
+    return ODOMETRY_TRANSLATION_HEADROOM * config.robot.max_speed * config.dt + 1.0
+
+
+def detection_reach(config: EnvConfig) -> float:
+    """The bound (m) of a detection's range (or robot-frame coordinates)."""
+    sensor = config.sensor
+    return sensor.max_range + RANGE_HEADROOM_STD * max(sensor.range_std, sensor.cartesian_std)
+
+
 def raw_observation_space(
     config: EnvConfig, n_slots: int, max_detections: int
 ) -> tuple[spaces.Dict, RawParams]:
     """The raw observation space of one sub-env, and the bounds its values are clipped
     to with the reward's constants (see :class:`slam_env.env.LandmarksEnv`)."""
-    step_motion = config.robot.max_speed * config.dt
-    trans_bound = ODOMETRY_TRANSLATION_HEADROOM * step_motion + 1.0
+    trans_bound = odometry_translation_bound(config)
     if config.odometry.motion_model == "odometry":
         odo_high = np.array([math.pi, trans_bound, math.pi], dtype=np.float32)
     else:
         odo_high = np.array([trans_bound, math.pi], dtype=np.float32)
     sensor = config.sensor
-    reach = sensor.max_range + RANGE_HEADROOM_STD * max(sensor.range_std, sensor.cartesian_std)
+    reach = detection_reach(config)
     if sensor.measurement_model == "range_bearing":
         det_low = np.array([0.0, -math.pi], dtype=np.float32)
         det_high = np.array([reach, math.pi], dtype=np.float32)

@@ -20,7 +20,8 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
 from slam_env.actions import DISCRETE_PRIMITIVES, parse_actions
-from slam_env.config import make_config
+from slam_env.budget import check_budget, world_size
+from slam_env.config import check_option_names, make_config
 from slam_env.raw_core import RawCore
 from slam_env.registration import DEFAULT_MAX_EPISODE_STEPS
 
@@ -259,7 +260,11 @@ class SlamVectorEnv(VectorEnv):
 
 
 def _raw_core(num_envs: int, config: Any = None, **options: Any) -> RawCore:
-    return RawCore(make_config(config, **options), num_envs)
+    check_option_names(options, ("config",))
+    config = make_config(config, **options)
+    # Everything that scales work or memory, for all the sub-envs, before it is built.
+    check_budget(config, world_size(config), num_envs=num_envs)
+    return RawCore(config, num_envs)
 
 
 class LandmarksVectorEnv(SlamVectorEnv):

@@ -210,3 +210,11 @@ def test_render_returns_a_frame_per_sub_env_and_close_releases_them() -> None:
     assert not np.array_equal(frames[0], frames[1])  # two different random worlds
     venv.close()
     assert venv.closed
+
+
+def test_the_budget_counts_every_sub_env() -> None:
+    """One sub-env fits, but the memory of many is refused before anything is built."""
+    options = {"n_landmarks": 1000, "width": 100.0, "height": 100.0, "landmark_spacing": 0.5}
+    gym.make_vec(LANDMARKS, num_envs=1, **options).close()
+    with pytest.raises(ValueError, match="memory"):
+        gym.make_vec(LANDMARKS, num_envs=100_000, **options)

@@ -12,6 +12,7 @@ from statistics import NormalDist
 import numpy as np
 import pytest
 
+from agents.base import RandomAgent
 from agents.evaluation import (
     METRICS,
     STEP_COLUMNS,
@@ -20,10 +21,12 @@ from agents.evaluation import (
     episode_columns,
     evaluate,
     mean_ci,
+    run_episode,
     student_t_cdf,
     summary_columns,
     t_quantile,
 )
+from agents.registry import make_env
 
 SMALL_WORLD = {"n_landmarks": 6, "width": 8.0, "height": 8.0, "n_obstacles": 1}
 HEURISTICS = [
@@ -263,3 +266,14 @@ def test_evaluate_rejects_bad_arguments(kwargs, match, tmp_path):
     with pytest.raises(ValueError, match=match):
         evaluate(**kwargs)
     assert not (tmp_path / "summary.csv").exists()
+
+
+def test_an_episode_without_a_mapped_landmark_has_no_map_error():
+    """The env leaves map_rmse out of info until a landmark is mapped; the record holds
+    NaN for those steps, which the summary leaves out of the mean."""
+    env = make_env({"n_landmarks": 1, "max_range": 1.0}, max_steps=5)
+    record = run_episode(env, RandomAgent(env, seed=0), seed=2)
+    env.close()
+    assert record.landmarks_known[-1] == 0 and np.isnan(record.map_rmse).all()
+    assert math.isnan(record.metrics()["map_rmse"])
+    assert mean_ci([record.metrics()["map_rmse"], 0.2, 0.4])[:1] == (pytest.approx(0.3),)
