@@ -18,7 +18,6 @@ from slam_env.raw_core import RawCore
 from slam_env.sensors import LandmarkSensor, OdometrySensor
 from slam_env.world import World
 
-
 # The env's own arguments besides the config options (for the list of valid names).
 ENV_ARGUMENTS = ("config", "render_mode")
 
