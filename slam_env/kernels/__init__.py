@@ -34,7 +34,7 @@ from typing import TypeVar
 
 import numba
 
-__all__ = ["KernelCacheWarning", "kernel"]
+__all__ = ["KernelCacheWarning", "inline_kernel", "kernel"]
 
 F = TypeVar("F", bound=Callable)
 
@@ -50,9 +50,21 @@ def kernel(fn: F) -> F:
     """``numba.njit(cache=True, nogil=True)``, falling back to an uncached compile
     (with one :class:`KernelCacheWarning` per process) where no cache directory is
     writable, e.g. a read-only install without ``NUMBA_CACHE_DIR``."""
+    return _compile(fn)
+
+
+def inline_kernel(fn: F) -> F:
+    """:func:`kernel`, and numba also inlines it into the kernels that call it
+    (``inline="always"``): for small functions that another kernel calls per item in a
+    loop. A compiled call increfs and decrefs each array it is passed (each array of a
+    NamedTuple too), about 10 ns apiece, which can cost more than the work itself."""
+    return _compile(fn, inline="always")
+
+
+def _compile(fn: F, **options: str) -> F:
     global _warned
     try:
-        return numba.njit(cache=True, nogil=True)(fn)
+        return numba.njit(cache=True, nogil=True, **options)(fn)
     except RuntimeError as exc:  # numba: "cannot cache function ...: no locator available"
         if not _warned:
             _warned = True
@@ -60,6 +72,6 @@ def kernel(fn: F) -> F:
                 f"slam_env: numba cannot write its cache ({exc}); kernels compile in each "
                 "process. Set NUMBA_CACHE_DIR to a writable directory to keep them.",
                 KernelCacheWarning,
-                stacklevel=2,
+                stacklevel=3,
             )
-        return numba.njit(cache=False, nogil=True)(fn)
+        return numba.njit(cache=False, nogil=True, **options)(fn)
