@@ -39,7 +39,7 @@ from typing import TypeVar
 
 import numba
 
-__all__ = ["KERNELS", "KernelCacheWarning", "kernel"]
+__all__ = ["KERNELS", "KernelCacheWarning", "inline_kernel", "kernel"]
 
 F = TypeVar("F", bound=Callable)
 
@@ -58,9 +58,21 @@ def kernel(fn: F) -> F:
     """``numba.njit(cache=True, nogil=True)``, falling back to an uncached compile
     (with one :class:`KernelCacheWarning` per process) where no cache directory is
     writable, e.g. a read-only install without ``NUMBA_CACHE_DIR``."""
+    return _compile(fn)
+
+
+def inline_kernel(fn: F) -> F:
+    """:func:`kernel`, and numba also inlines it into the kernels that call it
+    (``inline="always"``): for small functions that another kernel calls per item in a
+    loop. A compiled call increfs and decrefs each array it is passed (each array of a
+    NamedTuple too), about 10 ns apiece, which can cost more than the work itself."""
+    return _compile(fn, inline="always")
+
+
+def _compile(fn: F, **options: str) -> F:
     global _warned
     try:
-        compiled = numba.njit(cache=True, nogil=True)(fn)
+        compiled = numba.njit(cache=True, nogil=True, **options)(fn)
     except RuntimeError as exc:  # numba: "cannot cache function ...: no locator available"
         if not _warned:
             _warned = True
@@ -68,8 +80,8 @@ def kernel(fn: F) -> F:
                 f"slam_env: numba cannot write its cache ({exc}); kernels compile in each "
                 "process. Set NUMBA_CACHE_DIR to a writable directory to keep them.",
                 KernelCacheWarning,
-                stacklevel=2,
+                stacklevel=3,
             )
-        compiled = numba.njit(cache=False, nogil=True)(fn)
+        compiled = numba.njit(cache=False, nogil=True, **options)(fn)
     KERNELS.append(compiled)
     return compiled

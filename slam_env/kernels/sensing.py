@@ -28,8 +28,9 @@ import numpy as np
 
 from slam_env.kernels import kernel
 from slam_env.kernels.angles import wrap
-from slam_env.kernels.geometry import Geometry, line_of_sight, ray_fraction
+from slam_env.kernels.geometry import StaticGeometry
 from slam_env.kernels.random import normal_pair
+from slam_env.kernels.raycast import beam_fraction, line_of_sight
 
 
 class SensorParams(NamedTuple):
@@ -170,7 +171,7 @@ def sense_landmarks(
         poses: (B, 3) true poses (x, y, θ).
         landmarks: (B, N, 2) landmark positions; landmark_ids (B, N) their IDs;
             id_order (B, N) the rows in ascending ID order (stable).
-        geometry_fields: the fields of the B worlds' :class:`Geometry` (post i of
+        geometry_fields: the fields of the B worlds' :class:`StaticGeometry` (post i of
             world b is landmark row i), as a plain tuple (see :mod:`slam_env.kernels`).
         params_fields: the fields of the :class:`SensorParams`, a plain tuple.
         uniforms: (B, W) this step's uniforms; the scan reads columns
@@ -179,7 +180,7 @@ def sense_landmarks(
         out_z: (B, D, 2) measurements; out_ids (B, D) IDs; out_rows (B, D) landmark
             rows; out_count (B,) detections per world, first in each row block.
     """
-    geometry = Geometry(*geometry_fields)
+    geometry = StaticGeometry(*geometry_fields)
     params = SensorParams(*params_fields)
     n_rows = landmarks.shape[1]
     rows = np.empty(n_rows, dtype=np.int64)
@@ -221,14 +222,11 @@ def proximity_scan(
     """The free fraction of each beam, in [0, 1]: out (B, beams) float32, beam k at
     ``beam_angles[k]`` (rad, robot frame) from the robot's centre, ``reach`` m long,
     stopped by the first wall, obstacle or post (``geometry_fields``: the fields of the
-    :class:`Geometry`, a plain tuple)."""
-    geometry = Geometry(*geometry_fields)
+    :class:`StaticGeometry`, a plain tuple)."""
+    geometry = StaticGeometry(*geometry_fields)
     for b in range(poses.shape[0]):
         if not active[b]:
             continue
         x, y, theta = poses[b, 0], poses[b, 1], poses[b, 2]
         for k in range(beam_angles.shape[0]):
-            a = theta + beam_angles[k]
-            ex = x + reach * math.cos(a)
-            ey = y + reach * math.sin(a)
-            out[b, k] = ray_fraction(geometry, b, x, y, ex, ey)
+            out[b, k] = beam_fraction(geometry, b, x, y, theta + beam_angles[k], reach)

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from slam_env.config import EnvConfig, SensorConfig, WorldConfig
-from slam_env.kernels.geometry import line_of_sight
+from slam_env.kernels.raycast import line_of_sight
 from slam_env.kernels.sensing import proximity_scan, scan_uniforms, sense_landmarks
 from slam_env.sensors import LandmarkSensor
 from slam_env.world_batch import WorldBatch
