@@ -247,7 +247,6 @@ def run_episode(
     (and the last); ``collect_detections`` keeps world-frame detection points."""
     base = env.unwrapped
     obs, info = env.reset(seed=seed)
-    raw = base.raw_env
     rows: list[dict[str, Any]] = []
     est: list[np.ndarray] = []
     rewards: list[float] = []
@@ -260,7 +259,7 @@ def run_episode(
         if render_every and (step % render_every == 0 or done):
             frames.append(np.asarray(env.render()))
         if collect_detections:
-            detections.append(raw.render_frame().detections_world)
+            detections.append(base.render_frame().detections_world)
 
     record(0, False)
     world = _world_digest(info)
@@ -288,7 +287,7 @@ def run_episode(
 
     return EpisodeRecord(
         seed=seed,
-        n_landmarks=int(raw.n_landmarks),
+        n_landmarks=int(base.n_landmarks),
         true_poses=np.stack([r["pose"] for r in rows]).astype(np.float64),
         est_poses=np.stack(est),
         entropy=col("entropy"),
@@ -298,8 +297,8 @@ def run_episode(
         map_rmse=metric("map_rmse"),
         collision=col("collision", bool),
         rewards=np.asarray(rewards, dtype=np.float64),
-        layout=raw.layout,
-        belief=base.belief_wrapper.belief_overlay(),
+        layout=base.layout,
+        belief=base.belief_overlay(),
         world=world,
         frames=frames,
         detections_world=detections,

@@ -7,6 +7,7 @@ native vector env runs for B sub-envs, so that both share every line of the mode
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
@@ -177,7 +178,8 @@ class RawCore:
             np.zeros(b),
         )
         self.terminated = np.zeros(b, dtype=bool)
-        self._one = np.eye(b, dtype=bool)
+        self._none = np.zeros(b, dtype=bool)
+        self._idle = [0.0] * b  # the speeds and turn rates of robots that do not move
         # The kernels' grouped arguments as plain tuples (see slam_env.kernels).
         self._sensor_fields = tuple(self._sensor)
         self._fault_fields = tuple(self._faults)
@@ -188,29 +190,38 @@ class RawCore:
     def reset(self, index: int, rng: np.random.Generator) -> Layout:
         """Start sub-env ``index`` on a new episode, its randomness from ``rng``."""
         self.rngs[index] = rng
-        layout = self.worlds.reset(index, rng)
-        self.blocks.restart(index, rng)
-        self.seen[index] = False
-        self.collided[index] = False
-        self.kidnapped[index] = False
-        self.control[index] = 0.0
-        self.control_true[index] = 0.0
-        active = self._one[index]
-        uniforms = self.blocks.take(self.rngs, active)
-        self._sense(uniforms, active)
-        self._observe(active)
-        self.out.new_terms[index] = 0.0  # a reset pays nothing
-        self.out.collision_terms[index] = 0.0
-        self.out.rewards[index] = 0.0
-        self.terminated[index] = False
-        return layout
+        return self.advance(self._idle, self._idle, self._none, [index])[0]
 
     def step(self, speed: list[float], turn: list[float], active: np.ndarray) -> None:
-        """One step of the active sub-envs: robot b driven at ``speed[b]`` m/s and
-        ``turn[b]`` rad/s (lists of Python floats); ``active`` (B,) bool."""
+        """One step of the active sub-envs (see :meth:`advance`)."""
+        self.advance(speed, turn, active, ())
+
+    def advance(
+        self,
+        speed: list[float],
+        turn: list[float],
+        stepping: np.ndarray,
+        resetting: Sequence[int],
+    ) -> list[Layout]:
+        """Step the sub-envs of ``stepping`` ((B,) bool; robot b driven at ``speed[b]``
+        m/s and ``turn[b]`` rad/s, lists of B Python floats) and start a new episode for
+        those listed in ``resetting`` (their generators already in :attr:`rngs`), in the
+        same kernel calls. A reset scan has no faults and pays nothing. Returns the new
+        episodes' layouts, in the order of ``resetting``."""
         worlds = self.worlds
-        before = worlds.move(speed, turn, active.tolist(), self.collided)
-        uniforms = self.blocks.take(self.rngs, active)
+        before = worlds.move(speed, turn, stepping.tolist(), self.collided)
+        touched = stepping.copy()
+        layouts = []
+        for b in resetting:
+            layouts.append(worlds.reset(b, self.rngs[b]))
+            self.blocks.restart(b, self.rngs[b])
+            self.seen[b] = False
+            self.collided[b] = False
+            self.kidnapped[b] = False
+            self.control[b] = 0.0
+            self.control_true[b] = 0.0
+            touched[b] = True
+        uniforms = self.blocks.take(self.rngs, touched)
         read_odometry(
             before,
             worlds.poses,
@@ -218,7 +229,7 @@ class RawCore:
             self._noise,
             uniforms,
             0,
-            active,
+            stepping,
             self.control_true,
             self.control,
         )
@@ -228,14 +239,21 @@ class RawCore:
                 self._bias,
                 uniforms,
                 self._fault_offset,
-                active,
+                stepping,
                 self.control,
             )
-            self._kidnap(uniforms, active)
-        self._sense(uniforms, active)
-        self._observe(active)
+            self._kidnap(uniforms, stepping)
+        self._sense(uniforms, touched, stepping)
+        self._observe(touched)
+        out = self.out
         if self.config.terminate_when_all_detected:
-            np.copyto(self.terminated, self.out.all_seen)
+            np.logical_and(out.all_seen, stepping, out=self.terminated)
+        for b in resetting:
+            out.new_terms[b] = 0.0
+            out.collision_terms[b] = 0.0
+            out.rewards[b] = 0.0
+            self.terminated[b] = False
+        return layouts
 
     def _kidnap(self, uniforms: np.ndarray, active: np.ndarray) -> None:
         rate = self.config.faults.kidnap_rate
@@ -245,7 +263,8 @@ class RawCore:
             for b in np.flatnonzero(events).tolist():
                 self.kidnapped[b] = self.worlds.kidnap(b, self.rngs[b])
 
-    def _sense(self, uniforms: np.ndarray, active: np.ndarray) -> None:
+    def _sense(self, uniforms: np.ndarray, active: np.ndarray, faulty: np.ndarray) -> None:
+        """The scans of ``active``; the faults, if any, on those of ``faulty``."""
         worlds = self.worlds
         sense_landmarks(
             worlds.poses,
@@ -268,7 +287,7 @@ class RawCore:
                 self.seen,
                 uniforms,
                 self._fault_offset,
-                active,
+                faulty,
                 self.det_z,
                 self.det_ids,
                 self.det_rows,
@@ -293,6 +312,11 @@ class RawCore:
             self.seen,
             self._out_fields,
         )
+
+    @property
+    def rewards(self) -> np.ndarray:
+        """(B,) the rewards of the last step (0 for a reset)."""
+        return self.out.rewards
 
     # ------------------------------------------------------------------ reading
     def observation(self, index: int) -> dict[str, np.ndarray]:
@@ -373,8 +397,9 @@ class RawCore:
             info["kidnapped"] = bool(self.kidnapped[index])
         return info
 
-    def infos(self) -> dict[str, Any]:
-        """Every sub-env's info, stacked (B, …), fresh arrays, without masks."""
+    def infos(self) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+        """Every sub-env's info, stacked (B, …), fresh arrays, and the masks of the keys
+        that not every sub-env reports (none here: every key, every sub-env)."""
         worlds = self.worlds
         info = {
             "pose": worlds.poses.copy(),
@@ -390,4 +415,4 @@ class RawCore:
         }
         if self.faults_on:
             info["kidnapped"] = self.kidnapped.copy()
-        return info
+        return info, {}

@@ -16,6 +16,7 @@ from slam_env.vector import SlamVectorEnv
 from tests.streams import digest
 
 LANDMARKS = "slam_env/Landmarks-v0"
+ACTIVE = "slam_env/ActiveSLAM-v0"
 
 # (env ID, options): the default world and non-default configs of every kind.
 CONFIGS = [
@@ -35,13 +36,22 @@ CONFIGS = [
     (LANDMARKS, {"motion_model": "velocity", "measurement_model": "cartesian"}),
     (LANDMARKS, {"preset": "rooms", "action_type": "discrete"}),
     (LANDMARKS, {"preset": "open", "max_detections": 3, "detection_prob": 0.7, "fov": 6.28}),
+    (ACTIVE, {}),
+    (ACTIVE, {"observation": "full", "n_landmarks": 6, "outlier_rate": 0.2, "kidnap_rate": 0.01}),
+    (ACTIVE, {"motion_model": "velocity", "measurement_model": "cartesian"}),
+    (ACTIVE, {"action_type": "discrete", "correction": "batch", "preset": "rooms"}),
 ]
 
 
 def _row(tree: Any, i: int) -> Any:
-    """Sub-env i's part of a batched observation or vector info (masks dropped)."""
+    """Sub-env i's part of a batched observation or vector info: the keys its masks
+    say it reported (the masks themselves dropped)."""
     if isinstance(tree, dict):
-        return {k: _row(v, i) for k, v in tree.items() if not k.startswith("_")}
+        return {
+            k: _row(v, i)
+            for k, v in tree.items()
+            if not k.startswith("_") and (f"_{k}" not in tree or tree[f"_{k}"][i])
+        }
     return tree[i]
 
 
@@ -109,11 +119,12 @@ def _rollout(venv: gym.vector.VectorEnv, steps: int) -> list[Any]:
     return out
 
 
+@pytest.mark.parametrize("env_id", [LANDMARKS, ACTIVE])
 @pytest.mark.parametrize("mode", ["sync", "async"])
-def test_sync_and_async_give_the_native_stream(mode: str) -> None:
-    native = _rollout(gym.make_vec(LANDMARKS, num_envs=2, max_episode_steps=40), 120)
+def test_sync_and_async_give_the_native_stream(env_id: str, mode: str) -> None:
+    native = _rollout(gym.make_vec(env_id, num_envs=2, max_episode_steps=40), 120)
     other = _rollout(
-        gym.make_vec(LANDMARKS, num_envs=2, vectorization_mode=mode, max_episode_steps=40), 120
+        gym.make_vec(env_id, num_envs=2, vectorization_mode=mode, max_episode_steps=40), 120
     )
     for t, (a, b) in enumerate(zip(native, other, strict=True)):
         _assert_same(list(a), list(b), f"step {t}")

@@ -478,6 +478,20 @@ class EKFSLAM:
 
     __copy__ = copy
 
+    def _view_over(self, storage: tuple[np.ndarray, ...]) -> EKFSLAM:
+        """A filter with this one's configuration over ``storage``: the six state
+        arrays ``(x, P, n, id_to_slot, slot_to_id, n_rejected)`` of a batch of one, e.g.
+        views of row b of :class:`slam_env.ekf.batch.FilterBatch`'s (shared, not
+        copied: what one does, the other sees). Pickling or copying it copies the
+        state, as for any filter."""
+        new = object.__new__(type(self))
+        for name in self._CONFIG:
+            setattr(new, name, getattr(self, name))
+        for name, array in zip(self._STATE, storage, strict=True):
+            setattr(new, name, array)
+        new._setup()
+        return new
+
     def __deepcopy__(self, memo: dict) -> EKFSLAM:
         return self.copy()
 

@@ -24,23 +24,11 @@ import math
 import numpy as np
 
 from slam_env.kernels import kernel
-
-PI = math.pi
-TWO_PI = 2.0 * math.pi
-BELOW_PI = math.nextafter(math.pi, 0.0)  # the largest float below π
+from slam_env.kernels.angles import wrap as wrap_angle
 
 # Model codes, as the kernels take them.
 ODOMETRY, VELOCITY = 0, 1
 RANGE_BEARING, CARTESIAN = 0, 1
-
-
-@kernel
-def wrap_angle(a: float) -> float:
-    """a wrapped to [−π, π): ``(a + π) mod 2π − π``, capped below π because the
-    remainder rounds to +π for some a just below −π. Bit for bit
-    :func:`slam_env.geometry.wrap_float` (numba's float ``%`` is Python's)."""
-    w = (a + PI) % TWO_PI - PI
-    return BELOW_PI if w > BELOW_PI else w
 
 
 # --------------------------------------------------------------------------- odometry (seed 000)
