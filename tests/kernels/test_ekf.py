@@ -319,3 +319,19 @@ def test_the_workspace_grows_with_the_detections_and_the_state():
         sizes = [ekf.update_workspace_size(dmax, D) for D in range(6)]
         assert sizes[0] > 0 and all(a < b for a, b in itertools.pairwise(sizes))
     assert ekf.update_workspace_size(45, 5) > ekf.update_workspace_size(43, 5)
+
+
+def test_the_workspace_is_as_large_as_an_update_needs_and_no_larger():
+    """D observations of known landmarks in batch mode use the workspace up to its
+    last entry (the gate's mark of observation D − 1); one entry less is refused
+    (test_too_small_a_workspace_is_refused_for_the_worlds_asked_for)."""
+    D = 3
+    batch = Batch([("odometry", "cartesian", "batch", None)], D)
+    one = np.ones(1, dtype=np.bool_)
+    z = np.array([[[1.0, 2.0], [2.0, -1.0], [3.0, 0.5]]])
+    ids = np.array([[4, 0, 6]])
+    batch.update(z, ids, np.array([D]), one)
+    batch.work[:] = np.nan
+    _, _, error = batch.update(z + 0.01, ids, np.array([D]), one)
+    assert error.tolist() == [ekf.OK]
+    assert batch.work[-1] == 1.0
