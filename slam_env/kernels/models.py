@@ -38,9 +38,18 @@ RANGE_BEARING, CARTESIAN = 0, 1
 def wrap_angle(a: float) -> float:
     """a wrapped to [−π, π): ``(a + π) mod 2π − π``, capped below π because the
     remainder rounds to +π for some a just below −π. Bit for bit
-    :func:`slam_env.geometry.wrap_float` (numba's float ``%`` is Python's)."""
-    w = (a + PI) % TWO_PI - PI
-    return BELOW_PI if w > BELOW_PI else w
+    :func:`slam_env.geometry.wrap_float`: Python's float ``%`` is ``fmod`` plus 2π
+    for a negative remainder, and ``fmod`` is the identity within one turn, which
+    spares the library call for the angles a filter meets."""
+    w = a + PI
+    if 0.0 <= w < TWO_PI:
+        r = w
+    elif -TWO_PI < w < 0.0:
+        r = w + TWO_PI
+    else:
+        r = w % TWO_PI
+    r -= PI
+    return BELOW_PI if r > BELOW_PI else r
 
 
 # --------------------------------------------------------------------------- odometry (seed 000)

@@ -15,7 +15,23 @@ from slam_env.kernels import models as km
 def test_wrap_angle_is_the_geometry_helper_bit_for_bit():
     rng = np.random.default_rng(0)
     edge = math.nextafter(-math.pi, -4.0)
-    values = [*rng.uniform(-50, 50, 2000), math.pi, -math.pi, 0.0, -0.0, 1e300, edge, 3.3]
+    turn = 2 * math.pi
+    values = [
+        *rng.uniform(-50, 50, 1000),
+        *rng.uniform(-1.5 * turn, 1.5 * turn, 3000),  # the branches that skip the remainder
+        *(math.nextafter(v, t) for v in (-3 * math.pi, math.pi) for t in (-10.0, 10.0)),
+        *(math.nextafter(-math.pi, t) for t in (-10.0, 10.0)),
+        math.pi,
+        -math.pi,
+        3 * math.pi,
+        -3 * math.pi,
+        0.0,
+        -0.0,
+        1e300,
+        -1e300,
+        edge,
+        3.3,
+    ]
     for a in values:
         wrapped = km.wrap_angle(a)
         assert wrapped == wrap_float(a) and math.copysign(1, wrapped) == math.copysign(
