@@ -269,6 +269,7 @@ class EKFSLAM:
         self._id_to_slot = self._id_to_slot_b[0]
         self._slot_to_id = self._slot_to_id_b[0]
         self._u = np.zeros((1, MOTION_MODELS[self._motion_name].control_dim))
+        self._u_row = self._u[0]  # the control, written in place by predict
         noise = self._alphas if self._motion_name == "odometry" else self._control_noise
         params, modes = kernel_config(
             self._motion_name, self._measurement_name, self._correction, noise, self._Q, self._gate
@@ -280,6 +281,16 @@ class EKFSLAM:
         self._count = np.zeros(1, dtype=np.int64)
         self._max_obs = -1
         self._grow_workspace(min(self._N, 8))
+        # The kernels' arguments that never change, packed once (a call then pays for
+        # one tuple, not for a dozen attribute reads).
+        self._predict_args = (
+            self._xb, self._Pb, self._nb, self._u, self._params, self._modes, self._mask,
+            self._error,
+        )  # fmt: skip
+        self._update_state = (
+            self._xb, self._Pb, self._nb, self._id_to_slot_b, self._slot_to_id_b,
+            self._n_rejected_b, self._params, self._modes,
+        )  # fmt: skip
 
     def _grow_workspace(self, max_obs: int) -> None:
         """Room in the kernel's workspace for ``max_obs`` observations per update."""
@@ -521,12 +532,10 @@ class EKFSLAM:
         (odometry) or ``B Σu Bᵀ`` (velocity). Landmarks do not move. O(n). A
         prediction whose covariance would overflow is refused (``FloatingPointError``).
         """
-        u_row = self._u[0]
+        u_row = self._u_row
         checks.control_into(u, u_row, self._motion_name)
         error = self._error
-        ekf.predict(
-            self._xb, self._Pb, self._nb, self._u, self._params, self._modes, self._mask, error
-        )
+        ekf.predict(*self._predict_args)
         if error[0]:
             self._raise(int(error[0]), "predict", lambda: checks.bad_control(u_row))
 
@@ -547,11 +556,7 @@ class EKFSLAM:
         count = self._count
         count[0] = k
         error = self._error
-        ekf.update(
-            self._xb, self._Pb, self._nb, self._id_to_slot_b, self._slot_to_id_b,
-            self._n_rejected_b, self._params, self._modes, zb, idb, count, self._mask,
-            status, nis, error, self._work,
-        )  # fmt: skip
+        ekf.update(*self._update_state, zb, idb, count, self._mask, status, nis, error, self._work)
         if error[0]:
             self._raise(
                 int(error[0]), "update", lambda: checks.bad_observations(zb[0], idb[0], self._N)

@@ -56,10 +56,8 @@ from slam_env.kernels.models import (
 
 # params columns
 NOISE, Q00, Q01, Q11, GATE = 0, 4, 5, 6, 7
-N_PARAMS = 8
 # modes columns, and the correction modes
 MOTION, MEASUREMENT, CORRECTION = 0, 1, 2
-N_MODES = 3
 SEQUENTIAL, BATCH = 0, 1
 
 # Per-observation status (slam_env.ekf.Status), and UNUSED for padding, worlds not
@@ -131,7 +129,17 @@ def _predict_world(
     if not (math.isfinite(u0) and math.isfinite(u1) and math.isfinite(u2)):
         return BAD_INPUT
     nx, ny, nth, a, b, r00, r01, r02, r11, r12, r22 = motion_predict(
-        model, x[0], x[1], x[2], u0, u1, u2, params[0], params[1], params[2], params[3]
+        model,
+        x[0],
+        x[1],
+        x[2],
+        u0,
+        u1,
+        u2,
+        params[NOISE],
+        params[NOISE + 1],
+        params[NOISE + 2],
+        params[NOISE + 3],
     )
     p00 = P[0, 0]
     p01 = P[0, 1]

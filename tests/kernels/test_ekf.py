@@ -319,3 +319,33 @@ def test_the_workspace_grows_with_the_detections_and_the_state():
         sizes = [ekf.update_workspace_size(dmax, D) for D in range(6)]
         assert sizes[0] > 0 and all(a < b for a, b in itertools.pairwise(sizes))
     assert ekf.update_workspace_size(45, 5) > ekf.update_workspace_size(43, 5)
+
+
+def test_the_workspace_is_as_large_as_an_update_needs_and_no_larger():
+    """D observations of known landmarks in batch mode use the workspace up to its
+    last entry (the gate's mark of observation D − 1); one entry less is refused
+    (test_too_small_a_workspace_is_refused_for_the_worlds_asked_for)."""
+    D = 3
+    batch = Batch([("odometry", "cartesian", "batch", None)], D)
+    one = np.ones(1, dtype=np.bool_)
+    z = np.array([[[1.0, 2.0], [2.0, -1.0], [3.0, 0.5]]])
+    ids = np.array([[4, 0, 6]])
+    batch.update(z, ids, np.array([D]), one)
+    batch.work[:] = np.nan
+    _, _, error = batch.update(z + 0.01, ids, np.array([D]), one)
+    assert error.tolist() == [ekf.OK]
+    assert batch.work[-1] == 1.0
+
+
+@pytest.mark.parametrize(("heading", "row"), [(0.0, 1), (-math.pi / 2, 0)])
+def test_predict_judges_the_new_cross_covariances_not_their_terms(heading, row):
+    """Huge old entries whose update cancels are accepted: the overflow check is on
+    the new value G P_xm (row x gains a = −δtr·sin(θ+δrot1) times the heading row,
+    row y gains b = δtr·cos(θ+δrot1) times it)."""
+    batch = _two_worlds()
+    batch.x[:, 2] = heading
+    batch.P[:, 2, 3:7] = batch.P[:, 3:7, 2] = 1e298
+    batch.P[:, row, 3:7] = batch.P[:, 3:7, row] = -1e300  # cancelled by 100 × 1e298
+    error = batch.predict(np.array([[0.0, 100.0, 0.0]] * 2), np.ones(2, dtype=np.bool_))
+    assert error.tolist() == [ekf.OK, ekf.OK]
+    assert np.abs(batch.P[:, row, 3:7]).max() < 1e286
