@@ -321,6 +321,23 @@ class ActiveCore:
     def frame(self, index: int, trail: Any, belief: Any = None) -> Any:
         return self.raw.frame(index, trail, belief)
 
+    # What the single env reads of its world, as of the raw core.
     @property
     def worlds(self):
         return self.raw.worlds
+
+    @property
+    def n_landmarks(self) -> int:
+        return self.raw.n_landmarks
+
+    @property
+    def n_slots(self) -> int:
+        return self.raw.n_slots
+
+    @property
+    def arena_size(self) -> tuple[float, float]:
+        return self.raw.arena_size
+
+    @property
+    def max_detections(self) -> int:
+        return self.raw.max_detections

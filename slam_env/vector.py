@@ -38,12 +38,16 @@ def with_masks(
 ) -> dict[str, Any]:
     """A vector info in Gymnasium's convention: next to every key its ``_key`` mask of
     the sub-envs that reported it, ``reported`` ((B,) bool), and with it ``masks[key]``
-    for a key that not all of them report; nested dicts likewise."""
+    for a key that not all of them report (a key none reports is left out); nested
+    dicts likewise."""
     out: dict[str, Any] = {}
     for key, value in info.items():
-        out[key] = with_masks(value, reported) if isinstance(value, dict) else value
         own = (masks or {}).get(key)
-        out[f"_{key}"] = reported.copy() if own is None else reported & own
+        mask = reported.copy() if own is None else reported & own
+        if not mask.any():
+            continue  # as Gymnasium: a key no sub-env reported is not there
+        out[key] = with_masks(value, reported) if isinstance(value, dict) else value
+        out[f"_{key}"] = mask
     return out
 
 

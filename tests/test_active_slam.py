@@ -65,7 +65,7 @@ def test_one_random_stream_and_the_same_run_for_the_same_seed():
     a, b = gym.make(ENV_ID), gym.make(ENV_ID)
     a.reset(seed=12)
     b.reset(seed=12)
-    assert a.unwrapped.np_random is a.unwrapped.raw_env.np_random
+    assert a.unwrapped.np_random is a.unwrapped._core.rngs[0]  # the one stream it draws from
     for _ in range(30):
         action = np.array([0.7, -0.4], np.float32)
         step_a, step_b = a.step(action), b.step(action)
