@@ -22,7 +22,7 @@ from slam_env.active_options import ActiveSLAMOptions
 from slam_env.belief import BeliefGeometry, EgocentricEncoding, FullEncoding
 from slam_env.belief_entropy import BeliefEntropy
 from slam_env.config import EnvConfig
-from slam_env.coverage import COVERAGE_CELL, CoverageGrid
+from slam_env.coverage import CoverageGrid
 from slam_env.ekf import EKFSLAM
 from slam_env.ekf.batch import FilterBatch
 from slam_env.kernels.diagnostics import DIAGNOSTICS, belief_diagnostics
@@ -31,14 +31,14 @@ from slam_env.kernels.observe import filter_inputs
 from slam_env.kernels.reward import active_slam_reward
 from slam_env.layouts import Layout
 from slam_env.overlay import BeliefOverlay
-from slam_env.raw_core import RawCore
+from slam_env.raw_core import BatchCore, RawCore
 from slam_env.wrappers import DIVERGENCE_REJECTIONS, PASSTHROUGH_KEYS, REWARD_TERMS
 
 # Rows of the diagnostics kernel's output, by name.
 _DIAGNOSTIC_ROW = {name: i for i, name in enumerate(DIAGNOSTICS)}
 
 
-class ActiveCore:
+class ActiveCore(BatchCore):
     """B sub-envs of ``slam_env/ActiveSLAM-v0`` with one config, stepped together.
 
     Each step: :class:`RawCore`'s step, then the filters' prediction with the odometry
@@ -77,15 +77,7 @@ class ActiveCore:
         self._passthrough = tuple(k for k in PASSTHROUGH_KEYS if k in raw.observation_space.spaces)
         self.coverage: CoverageGrid | None = None
         if options.coverage:
-            self.coverage = CoverageGrid(
-                width,
-                height,
-                sweep_range=max(sensor.max_range - COVERAGE_CELL, 0.0),
-                fov=sensor.fov,
-                cell=COVERAGE_CELL,
-                ring_edges=(sensor.max_range, 2.0 * sensor.max_range),
-                worlds=b,
-            )
+            self.coverage = CoverageGrid.for_sensor(width, height, sensor, worlds=b)
         if options.observation == "full":
             self._encoding: FullEncoding | EgocentricEncoding = FullEncoding(self._geometry)
             self._full = self._encoding.empty(b)
@@ -142,14 +134,9 @@ class ActiveCore:
     def rngs(self) -> list[np.random.Generator | None]:
         return self.raw.rngs
 
-    def reset(self, index: int, rng: np.random.Generator) -> Layout:
-        """Start sub-env ``index`` on a new episode, its randomness from ``rng``."""
-        self.raw.rngs[index] = rng
-        return self.advance(self.raw._idle, self.raw._idle, self._none, [index])[0]
-
-    def step(self, speed: list[float], turn: list[float], active: np.ndarray) -> None:
-        """One step of the active sub-envs (see :meth:`advance`)."""
-        self.advance(speed, turn, active, ())
+    @property
+    def _idle(self) -> list[float]:
+        return self.raw._idle
 
     def advance(
         self,

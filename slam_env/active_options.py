@@ -105,6 +105,11 @@ class ActiveSLAMOptions:
             object.__setattr__(self, name, value)
         object.__setattr__(self, "weights", self._weights(self.reward_weights))
 
+    @classmethod
+    def argument_names(cls) -> tuple[str, ...]:
+        """The options' names, as ``ActiveSLAM-v0`` takes them."""
+        return tuple(f.name for f in fields(cls) if f.init)
+
     @staticmethod
     def _weights(value: Any) -> ActiveSLAMRewardWeights:
         if value is None:

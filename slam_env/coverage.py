@@ -15,6 +15,7 @@ from typing import Any, SupportsFloat
 import gymnasium as gym
 import numpy as np
 
+from slam_env.config import SensorConfig
 from slam_env.kernels import coverage as kernels
 from slam_env.kernels.belief_state import SINGLE, filter_belief
 from slam_env.kernels.coverage import CoverageTables, coverage_step
@@ -137,6 +138,30 @@ class CoverageGrid:
         self._n_swept = np.zeros(worlds, dtype=np.int64)
         self._setup_scratch()
         self.reset()
+
+    @classmethod
+    def for_sensor(
+        cls,
+        width: float,
+        height: float,
+        sensor: SensorConfig,
+        *,
+        cell: float = COVERAGE_CELL,
+        worlds: int = SINGLE,
+    ) -> CoverageGrid:
+        """The grid a landmark sensor sweeps (see :class:`CoverageWrapper`): its FOV,
+        and its range less one cell, so that a cell counts as swept only well inside
+        it; rings at R and 2R, R the range."""
+        reach = sensor.max_range
+        return cls(
+            width,
+            height,
+            sweep_range=max(reach - cell, 0.0),
+            fov=sensor.fov,
+            cell=cell,
+            ring_edges=(reach, 2.0 * reach),
+            worlds=worlds,
+        )
 
     # Views and scratch buffers: rebuilt on unpickling, never pickled (a view
     # would come back as a copy, detached from the padded grid).
@@ -261,14 +286,7 @@ class CoverageWrapper(gym.ObservationWrapper):
         base = env.unwrapped
         sensor = base.config.sensor
         width, height = base.arena_size
-        self.grid = CoverageGrid(
-            width,
-            height,
-            sweep_range=max(sensor.max_range - cell, 0.0),
-            fov=sensor.fov,
-            cell=cell,
-            ring_edges=(sensor.max_range, 2.0 * sensor.max_range),
-        )
+        self.grid = CoverageGrid.for_sensor(width, height, sensor, cell=cell)
         n = 1 + self.grid.n_features
         space = gym.spaces.Box(0.0, 1.0, (n,), np.float32)
         inner = env.observation_space

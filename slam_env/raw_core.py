@@ -93,7 +93,30 @@ def raw_observation_space(
     return spaces.Dict(obs_spaces), params
 
 
-class RawCore:
+class BatchCore:
+    """What both batched cores offer on top of their ``advance``: one sub-env's reset,
+    and a step of some sub-envs."""
+
+    rngs: list[np.random.Generator | None]
+    _idle: list[float]  # the speeds and turn rates of sub-envs that only reset
+    _none: np.ndarray  # (B,) False: no sub-env steps
+
+    def advance(
+        self, speed: list[float], turn: list[float], stepping: np.ndarray, resetting: Sequence[int]
+    ) -> list[Layout]:
+        raise NotImplementedError
+
+    def reset(self, index: int, rng: np.random.Generator) -> Layout:
+        """Start sub-env ``index`` on a new episode, its randomness from ``rng``."""
+        self.rngs[index] = rng
+        return self.advance(self._idle, self._idle, self._none, [index])[0]
+
+    def step(self, speed: list[float], turn: list[float], active: np.ndarray) -> None:
+        """One step of the active sub-envs (see :meth:`advance`)."""
+        self.advance(speed, turn, active, ())
+
+
+class RawCore(BatchCore):
     """B sub-envs of ``slam_env/Landmarks-v0`` with one config, stepped together.
 
     Each sub-env has its own generator (:attr:`rngs`, set by :meth:`reset`), its own
@@ -187,15 +210,6 @@ class RawCore:
         self._out_fields = tuple(self.out)  # the active mask of one sub-env
 
     # ------------------------------------------------------------------ stepping
-    def reset(self, index: int, rng: np.random.Generator) -> Layout:
-        """Start sub-env ``index`` on a new episode, its randomness from ``rng``."""
-        self.rngs[index] = rng
-        return self.advance(self._idle, self._idle, self._none, [index])[0]
-
-    def step(self, speed: list[float], turn: list[float], active: np.ndarray) -> None:
-        """One step of the active sub-envs (see :meth:`advance`)."""
-        self.advance(speed, turn, active, ())
-
     def advance(
         self,
         speed: list[float],

@@ -28,7 +28,6 @@ from slam_env.config import check_option_names, make_config
 from slam_env.ekf import EKFSLAM
 from slam_env.raw_core import RawCore
 from slam_env.registration import DEFAULT_MAX_EPISODE_STEPS
-from slam_env.wrappers import DEFAULT_GATE
 
 AUTORESET_MODES = (AutoresetMode.NEXT_STEP, AutoresetMode.SAME_STEP)
 
@@ -299,30 +298,11 @@ class LandmarksVectorEnv(SlamVectorEnv):
         super().__init__(num_envs, _raw_core, **kwargs)
 
 
-def _active_core(
-    num_envs: int,
-    observation: str = "egocentric",
-    correction: str = "sequential",
-    gate: float | None = DEFAULT_GATE,
-    filter_alphas: Any = None,
-    filter_control_noise: Any = None,
-    filter_measurement_cov: Any = None,
-    reward_weights: Any = None,
-    coverage: bool = True,
-    **env_options: Any,
-) -> ActiveCore:
-    options = ActiveSLAMOptions(
-        observation,
-        correction,
-        gate,
-        filter_alphas,
-        filter_control_noise,
-        filter_measurement_cov,
-        reward_weights,
-        coverage,
-    )
-    check_option_names(env_options, ("config", *ACTIVE_SLAM_ARGUMENTS))
-    return ActiveCore(active_config(options, env_options, num_envs), num_envs, options)
+def _active_core(num_envs: int, **options: Any) -> ActiveCore:
+    own = {k: options.pop(k) for k in ActiveSLAMOptions.argument_names() if k in options}
+    active = ActiveSLAMOptions(**own)
+    check_option_names(options, ("config", *ACTIVE_SLAM_ARGUMENTS))
+    return ActiveCore(active_config(active, options, num_envs), num_envs, active)
 
 
 class ActiveSLAMVectorEnv(SlamVectorEnv):

@@ -15,6 +15,7 @@ from slam_env.active_options import ACTIVE_SLAM_DEFAULTS
 from slam_env.coverage import CoverageWrapper
 from slam_env.env import LandmarksEnv
 from slam_env.wrappers import ActiveSLAMReward, ActiveSLAMRewardWeights, EKFSLAMWrapper
+from tests.streams import assert_same
 
 # (the belief's options, the world's options)
 CONFIGS = [
@@ -47,20 +48,6 @@ def wrapper_stack(belief: dict[str, Any], world: dict[str, Any]) -> gym.Env:
     return ActiveSLAMReward(env, weights)
 
 
-def _same(a: Any, b: Any, where: str) -> None:
-    if isinstance(a, dict):
-        assert a.keys() == b.keys(), (where, sorted(set(a) ^ set(b)))
-        for key in a:
-            _same(a[key], b[key], f"{where}/{key}")
-    elif isinstance(a, (list, tuple)):
-        assert len(a) == len(b), where
-        for i, (x, y) in enumerate(zip(a, b, strict=True)):
-            _same(x, y, f"{where}[{i}]")
-    else:
-        assert type(a) is type(b), (where, type(a), type(b))
-        assert np.array_equal(a, b), (where, a, b)
-
-
 @pytest.mark.parametrize(("belief", "world"), CONFIGS)
 def test_the_core_is_the_wrapper_stack_bit_for_bit(belief, world) -> None:
     core = gym.make("slam_env/ActiveSLAM-v0", max_episode_steps=None, **belief, **world)
@@ -68,8 +55,8 @@ def test_the_core_is_the_wrapper_stack_bit_for_bit(belief, world) -> None:
     assert core.observation_space == stack.observation_space
     rng = np.random.default_rng(0)
     for episode in range(2):
-        _same(core.reset(seed=episode), stack.reset(seed=episode), f"reset {episode}")
+        assert_same(core.reset(seed=episode), stack.reset(seed=episode), f"reset {episode}")
         for t in range(250):
             action = np.array([rng.uniform(-0.3, 1.0), rng.uniform(-1, 1)], np.float32)
-            _same(list(core.step(action)), list(stack.step(action)), f"step {episode}.{t}")
+            assert_same(list(core.step(action)), list(stack.step(action)), f"step {episode}.{t}")
     assert core.unwrapped.filter.n_landmarks > 0
