@@ -9,7 +9,7 @@ Gaussian error with variance σ²,
   sample covariance  SE = σi σj / √(n − 1)     (independent components)
   Σ whitened²        χ²(ν): mean ν, SD √(2ν)  (ν large: normal approximation)
 plus a Kolmogorov–Smirnov test of the whitened errors against N(0, 1). Only numpy
-and the standard library are used (no scipy in the project's environment).
+and the standard library are used.
 """
 
 from __future__ import annotations
