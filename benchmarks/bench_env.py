@@ -1,12 +1,17 @@
 """Env throughput: slam_env steps per second against CartPole-v1 in the same run.
 
     .venv/bin/python benchmarks/bench_env.py [--steps 20000] [--repeats 3]
+                     [--wrapped] [--vector 8 64 256] [--vector-ids Landmarks ActiveSLAM]
 
-Every env is made with ``gym.make`` (so each carries the same standard wrappers),
-stepped with pre-sampled random actions and reset when an episode ends. The repeats
-take turns: each round times every env once, so a slow spell of a shared machine hits
-all of them, and the best of ``--repeats`` rounds is kept for each. The figures that
-matter are the ratios measured in the same run.
+Every single env is made with ``gym.make`` (so each carries the same standard
+wrappers), every native vector env with ``gym.make_vec(..., "vector_entry_point")``
+beside CartPole-v1's own vector env at the same number of sub-envs; all are stepped
+with pre-sampled random actions (an episode that ends is reset: by the loop for a
+single env, by the vector env itself otherwise). A vector env's rate counts env-steps
+(sub-envs × vector steps) per second. The repeats take turns: each round times every
+env once, so a slow spell of a shared machine hits all of them, and the best of
+``--repeats`` rounds is kept for each. The figures that matter are the ratios measured
+in the same run, against CartPole-v1's single env.
 """
 
 from __future__ import annotations
@@ -21,9 +26,11 @@ import gymnasium as gym
 import slam_env  # noqa: F401  (registers the env IDs)
 from slam_env.active_slam import DEFAULT_SCAN_BEAMS
 
+VECTOR_IDS = {"Landmarks": "slam_env/Landmarks-v0", "ActiveSLAM": "slam_env/ActiveSLAM-v0"}
+
 
 class Timed:
-    """One env with its pre-sampled actions, timed a round at a time."""
+    """One single env with its pre-sampled actions, timed a round at a time."""
 
     def __init__(self, env_id: str, steps: int, **kwargs: Any) -> None:
         self.env = gym.make(env_id, **kwargs)
@@ -48,6 +55,34 @@ class Timed:
         return len(self.actions) / self.best
 
 
+class TimedVector(Timed):
+    """A native vector env of ``num_envs`` sub-envs, stepped about ``steps`` env-steps
+    a round; its rate is env-steps per second."""
+
+    def __init__(self, env_id: str, steps: int, num_envs: int, **kwargs: Any) -> None:
+        self.env = gym.make_vec(
+            env_id, num_envs=num_envs, vectorization_mode="vector_entry_point", **kwargs
+        )
+        self.env.action_space.seed(0)
+        self.actions = [self.env.action_space.sample() for _ in range(max(steps // num_envs, 1))]
+        self.num_envs = num_envs
+        self.best = float("inf")
+        self.rounds = 0
+
+    def run_round(self) -> None:
+        env = self.env
+        env.reset(seed=self.rounds)
+        self.rounds += 1
+        start = time.perf_counter()
+        for action in self.actions:
+            env.step(action)
+        self.best = min(self.best, time.perf_counter() - start)
+
+    @property
+    def rate(self) -> float:
+        return len(self.actions) * self.num_envs / self.best
+
+
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--steps", type=int, default=20_000)
@@ -56,6 +91,16 @@ def main(argv: list[str] | None = None) -> None:
         "--wrapped",
         action="store_true",
         help="also time slam_env/ActiveSLAM-v0 next to the raw env at 20 and 100 landmarks",
+    )
+    parser.add_argument(
+        "--vector",
+        type=int,
+        nargs="*",
+        default=[8, 64, 256],
+        help="sub-env counts of the native vector envs (none: no vector rows)",
+    )
+    parser.add_argument(
+        "--vector-ids", nargs="*", choices=sorted(VECTOR_IDS), default=sorted(VECTOR_IDS)
     )
     args = parser.parse_args(argv)
 
@@ -68,6 +113,7 @@ def main(argv: list[str] | None = None) -> None:
             Timed("slam_env/Landmarks-v0", args.steps),
             None,
         ),
+        ("slam_env/ActiveSLAM-v0", "20 landmarks", Timed("slam_env/ActiveSLAM-v0", args.steps), 1),
     ]
     if args.wrapped:
         # The wrapper is compared with the raw env it wraps: the same world and the
@@ -84,23 +130,27 @@ def main(argv: list[str] | None = None) -> None:
             )
             rows.append(("slam_env/Landmarks-v0", f"{n} landmarks, with the scan", raw, None))
             raw_row = len(rows) - 1
-            # The EKF-SLAM wrapper alone (and the reward's bookkeeping), then the whole
-            # registered stack, whose swept-area memory is a wrapper of its own.
             for setting, extra in (("belief only", {"coverage": False}), ("", {})):
                 wrapped = Timed("slam_env/ActiveSLAM-v0", args.steps, **kw, **extra)
                 label = f"{n} landmarks" + (f", {setting}" if setting else "")
                 rows.append(("slam_env/ActiveSLAM-v0", label, wrapped, raw_row))
+    for b in args.vector:
+        cartpole = TimedVector("CartPole-v1", args.steps, b)
+        rows.append(("CartPole-v1", f"vector, B = {b}", cartpole, None))
+        for name in args.vector_ids:
+            timed = TimedVector(VECTOR_IDS[name], args.steps, b)
+            rows.append((VECTOR_IDS[name], f"native vector, B = {b}", timed, None))
 
     for _ in range(args.repeats):
         for _, _, timed, _ in rows:
             timed.run_round()
 
-    cartpole = rows[0][2].rate
+    cartpole_rate = rows[0][2].rate
     print("| env | setting | steps/s | × CartPole-v1 | × raw |\n|---|---|---:|---:|---:|")
     for name, setting, timed, raw_row in rows:
         rate = timed.rate
         vs_raw = "" if raw_row is None else f"{rate / rows[raw_row][2].rate:.2f}"
-        print(f"| {name} | {setting} | {rate:,.0f} | {rate / cartpole:.3f} | {vs_raw} |")
+        print(f"| {name} | {setting} | {rate:,.0f} | {rate / cartpole_rate:.3f} | {vs_raw} |")
 
 
 if __name__ == "__main__":

@@ -64,3 +64,44 @@ def parse_action(action: Any, action_space: spaces.Space) -> tuple[float, float]
     speed = min(1.0, max(-1.0, float(arr[0])))
     turn = min(1.0, max(-1.0, float(arr[1])))
     return speed, turn
+
+
+# The primitives as an array, for parsing a batch of discrete actions at once.
+_PRIMITIVES = np.array(DISCRETE_PRIMITIVES, dtype=np.float64)
+
+
+def parse_actions(
+    actions: Any, single_space: spaces.Space, num_envs: int, active: np.ndarray
+) -> tuple[list[float], list[float]]:
+    """:func:`parse_action` for the actions of ``num_envs`` sub-envs at once: lists of
+    the speed and turn fractions, in [−1, 1]. Only the ``active`` (B,) rows need be
+    valid numbers, as only they are stepped (the others are being reset)."""
+    if isinstance(single_space, spaces.Discrete):
+        arr = np.asarray(actions)
+        if arr.shape != (num_envs,) or not np.issubdtype(arr.dtype, np.integer):
+            raise TypeError(
+                f"discrete actions must be {num_envs} integers, got dtype {arr.dtype}, "
+                f"shape {arr.shape}"
+            )
+        bad = active & ((arr < 0) | (arr >= len(DISCRETE_PRIMITIVES)))
+        if bad.any():
+            raise ValueError(
+                f"discrete actions must be in [0, {len(DISCRETE_PRIMITIVES)}), got "
+                f"{arr[bad].tolist()} for sub-envs {np.flatnonzero(bad).tolist()}"
+            )
+        chosen = _PRIMITIVES[np.where(active, arr, 0)]
+        return chosen[:, 0].tolist(), chosen[:, 1].tolist()
+    try:
+        arr = np.asarray(actions, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise TypeError(f"actions must be numeric, got {type(actions).__name__}") from exc
+    if arr.shape != (num_envs, 2):
+        raise ValueError(
+            f"actions must have shape ({num_envs}, 2) (speed, turn rate), got {arr.shape}"
+        )
+    finite = np.isfinite(arr).all(axis=1)
+    if not finite[active].all():
+        bad = np.flatnonzero(active & ~finite)
+        raise ValueError(f"actions must be finite; sub-envs {bad.tolist()} are {arr[bad]}")
+    clipped = np.clip(np.where(finite[:, None], arr, 0.0), -1.0, 1.0)
+    return clipped[:, 0].tolist(), clipped[:, 1].tolist()

@@ -9,7 +9,8 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field, fields
 from typing import Any
 
-from slam_env.config import EnvConfig, plain
+from slam_env.budget import check_budget, world_size
+from slam_env.config import EnvConfig, make_config, plain, with_defaults
 from slam_env.ekf import CORRECTION_MODES
 from slam_env.wrappers import DEFAULT_GATE, OBSERVATION_MODES, ActiveSLAMRewardWeights
 
@@ -104,6 +105,11 @@ class ActiveSLAMOptions:
             object.__setattr__(self, name, value)
         object.__setattr__(self, "weights", self._weights(self.reward_weights))
 
+    @classmethod
+    def argument_names(cls) -> tuple[str, ...]:
+        """The options' names, as ``ActiveSLAM-v0`` takes them."""
+        return tuple(f.name for f in fields(cls) if f.init)
+
     @staticmethod
     def _weights(value: Any) -> ActiveSLAMRewardWeights:
         if value is None:
@@ -142,3 +148,26 @@ class ActiveSLAMOptions:
                 "noise-free sensor makes its innovation covariance singular; or give "
                 "filter_measurement_cov"
             )
+
+
+def active_config(
+    options: ActiveSLAMOptions, env_options: Mapping[str, Any], num_envs: int
+) -> EnvConfig:
+    """The world's config of ``ActiveSLAM-v0`` from its options (flat or nested, with
+    :data:`ACTIVE_SLAM_DEFAULTS`), checked with ``options`` against the resource budget
+    for ``num_envs`` sub-envs before anything is built."""
+    env_options = with_defaults(env_options, ACTIVE_SLAM_DEFAULTS)
+    config = make_config(env_options.pop("config", None), **env_options)
+    check_budget(
+        config,
+        world_size(config),
+        belief=options.observation,
+        coverage=options.coverage,
+        filter_alphas=options.filter_alphas,
+        filter_control_noise=options.filter_control_noise,
+        filter_measurement_cov=options.filter_measurement_cov,
+        reward_weights=vars(options.weights),
+        num_envs=num_envs,
+    )
+    options.check_against(config)
+    return config

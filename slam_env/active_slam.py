@@ -1,39 +1,33 @@
-"""``slam_env/ActiveSLAM-v0``: the raw env behind the EKF-SLAM wrapper and the
-active-SLAM reward, as one ``gymnasium.Env``.
-
-The registered env is a thin :class:`gymnasium.Env` that owns the wrapper stack
-``LandmarksEnv → EKFSLAMWrapper → CoverageWrapper → ActiveSLAMReward`` and delegates to
-it, so that the env checkers see an unwrapped env and users reach the filter as
-``env.unwrapped.filter``.
-Users who want the wrappers on their own env use them directly.
+"""``slam_env/ActiveSLAM-v0``: the raw stream, the EKF-SLAM belief and the
+active-SLAM reward as one ``gymnasium.Env``: sub-env 0 of
+:class:`slam_env.active_core.ActiveCore`, which computes what the wrapper stack
+``LandmarksEnv → EKFSLAMWrapper → CoverageWrapper → ActiveSLAMReward`` computes, with
+the same kernels, in a few compiled calls. Users reach the filter as
+``env.unwrapped.filter``; users who want the wrappers on their own env use them
+directly.
 """
 
 from __future__ import annotations
 
 import inspect
 from collections.abc import Mapping
-from typing import Any, SupportsFloat
+from typing import Any
 
-import gymnasium as gym
 import numpy as np
 
-from slam_env.active_options import ACTIVE_SLAM_DEFAULTS, DEFAULT_SCAN_BEAMS, ActiveSLAMOptions
-from slam_env.budget import check_budget, world_size
-from slam_env.config import check_option_names, make_config, with_defaults
-from slam_env.coverage import CoverageWrapper
+from slam_env.active_core import ActiveCore
+from slam_env.active_options import DEFAULT_SCAN_BEAMS, ActiveSLAMOptions, active_config
+from slam_env.config import check_option_names
 from slam_env.ekf import EKFSLAM
-from slam_env.env import ENV_ARGUMENTS, LandmarksEnv, check_reset_options
-from slam_env.wrappers import (
-    DEFAULT_GATE,
-    ActiveSLAMReward,
-    ActiveSLAMRewardWeights,
-    EKFSLAMWrapper,
-)
+from slam_env.env import ENV_ARGUMENTS
+from slam_env.overlay import BeliefOverlay
+from slam_env.single_env import CoreEnv
+from slam_env.wrappers import DEFAULT_GATE, ActiveSLAMRewardWeights
 
 __all__ = ["DEFAULT_SCAN_BEAMS", "ActiveSLAMEnv"]
 
 
-class ActiveSLAMEnv(gym.Env):
+class ActiveSLAMEnv(CoreEnv):
     """Active SLAM: act on the EKF-SLAM belief, be paid for reducing its uncertainty.
 
     The world, robot, sensors and episode end are those of
@@ -71,8 +65,6 @@ class ActiveSLAMEnv(gym.Env):
     that did not report it (``info["_map_rmse"]``).
     """
 
-    metadata = LandmarksEnv.metadata
-
     def __init__(
         self,
         render_mode: str | None = None,
@@ -97,66 +89,28 @@ class ActiveSLAMEnv(gym.Env):
             coverage,
         )
         check_option_names(env_options, ENV_ARGUMENTS + _OWN_ARGUMENTS)
-        env_options = with_defaults(env_options, ACTIVE_SLAM_DEFAULTS)
-        config = make_config(env_options.pop("config", None), **env_options)
-        # Everything that scales work or memory, before any of it is built.
-        check_budget(
-            config,
-            world_size(config),
-            belief=opts.observation,
-            coverage=opts.coverage,
-            filter_alphas=opts.filter_alphas,
-            filter_control_noise=opts.filter_control_noise,
-            filter_measurement_cov=opts.filter_measurement_cov,
-            reward_weights=vars(opts.weights),
-        )
-        opts.check_against(config)
-        self.raw_env = LandmarksEnv(render_mode=render_mode, config=config)
-        self.belief_wrapper = EKFSLAMWrapper(
-            self.raw_env,
-            observation=opts.observation,
-            correction=opts.correction,
-            gate=opts.gate,
-            alphas=opts.filter_alphas,
-            control_noise=opts.filter_control_noise,
-            measurement_cov=opts.filter_measurement_cov,
-        )
-        belief: gym.Env = self.belief_wrapper
-        if opts.coverage:
-            belief = CoverageWrapper(belief)
-        self._stack = ActiveSLAMReward(belief, opts.weights)
-        self.render_mode = render_mode
-        self.observation_space = self._stack.observation_space
-        self.action_space = self._stack.action_space
+        config = active_config(opts, env_options, num_envs=1)
+        # A batch of one: the native vector env runs the same core for B sub-envs.
+        self._setup(ActiveCore(config, 1, opts), render_mode)
+        self.options = opts
 
     @property
     def filter(self) -> EKFSLAM:
-        """The EKF-SLAM filter holding the current belief."""
-        return self.belief_wrapper.filter
+        """The EKF-SLAM filter holding the current belief (its state is the core's)."""
+        return self._core.filter(0)
 
     @property
-    def config(self):
-        return self.raw_env.config
+    def reward_weights(self) -> ActiveSLAMRewardWeights:
+        """The weights of the reward terms."""
+        return self.options.weights
 
-    def reset(
-        self, *, seed: int | None = None, options: dict[str, Any] | None = None
-    ) -> tuple[Any, dict[str, Any]]:
-        check_reset_options(options, type(self).__name__)  # before the seed is applied
-        super().reset(seed=seed)
-        obs, info = self._stack.reset(seed=seed, options=options)
-        # One random stream for the whole stack: the raw env's.
-        self._np_random = self.raw_env.np_random
-        return obs, info
+    def belief_overlay(self, true_landmarks: Any = None) -> BeliefOverlay:
+        """What the pictures draw of the belief (``true_landmarks`` (N, 2) to draw the
+        truth beside it, if wanted)."""
+        return self._core.belief_overlay(0, true_landmarks)
 
-    def step(self, action: Any) -> tuple[Any, SupportsFloat, bool, bool, dict[str, Any]]:
-        return self._stack.step(action)
-
-    def render(self) -> Any:
-        return self._stack.render()
-
-    def close(self) -> None:
-        self._stack.close()
-        super().close()
+    def _overlay(self) -> BeliefOverlay:
+        return self.belief_overlay()
 
 
 # ActiveSLAMEnv's own arguments, for the list of valid names in errors.

@@ -117,9 +117,13 @@ class FullEncoding:
             np.empty(worlds, np.bool_),
         )
 
-    def encode_batch(self, belief: BeliefBatch, out: FullBelief) -> None:
-        """Encode B beliefs into ``out`` (from :meth:`empty`)."""
-        encode_full(*belief, self._mean_bound, self._cov_bound, *out)
+    def encode_batch(
+        self, belief: BeliefBatch, out: FullBelief, active: np.ndarray | None = None
+    ) -> None:
+        """Encode the B beliefs of ``active`` (B,) bool (default all) into ``out`` (from
+        :meth:`empty`)."""
+        active = np.ones(belief.x.shape[0], dtype=np.bool_) if active is None else active
+        encode_full(*belief, self._mean_bound, self._cov_bound, *out, active)
 
     def encode(
         self, mean: np.ndarray, cov: np.ndarray, state_to_id: Sequence[int]
@@ -175,12 +179,18 @@ class EgocentricEncoding:
         )
 
     def encode_batch(
-        self, belief: BeliefBatch, tail: np.ndarray, out: np.ndarray, clipped: np.ndarray
+        self,
+        belief: BeliefBatch,
+        tail: np.ndarray,
+        out: np.ndarray,
+        clipped: np.ndarray,
+        active: np.ndarray | None = None,
     ) -> None:
-        """Encode B beliefs: ``out`` (B, F + T) float32 gets the features, then
-        ``tail`` (B, T) float32 as it is (the raw proximity readings, already inside
-        their own bounds); ``clipped`` (B,) bool."""
-        encode_egocentric(*belief, *self.params, tail, out, clipped)
+        """Encode the B beliefs of ``active`` (B,) bool (default all): ``out`` (B, F + T)
+        float32 gets the features, then ``tail`` (B, T) float32 as it is (the raw
+        proximity readings, already inside their own bounds); ``clipped`` (B,) bool."""
+        active = np.ones(belief.x.shape[0], dtype=np.bool_) if active is None else active
+        encode_egocentric(*belief, *self.params, tail, out, clipped, active)
 
     def encode(
         self,

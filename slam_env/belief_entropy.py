@@ -43,19 +43,28 @@ class BeliefEntropy:
         self._entropy = np.empty(SINGLE)
         self._ok = np.empty(SINGLE, dtype=np.bool_)
 
-    def batch(self, P: np.ndarray, n: np.ndarray, out: np.ndarray, ok: np.ndarray) -> None:
+    def batch(
+        self,
+        P: np.ndarray,
+        n: np.ndarray,
+        out: np.ndarray,
+        ok: np.ndarray,
+        active: np.ndarray | None = None,
+    ) -> None:
         """``out[b]``: the entropy of world b's belief (``P`` (B, dmax, dmax) float64
-        with dmax ≤ 3 + 2·max_landmarks, ``n`` (B,) int64 landmarks in the state);
-        ``ok`` (B,) bool scratch."""
+        with dmax ≤ 3 + 2·max_landmarks, ``n`` (B,) int64 landmarks in the state), for
+        the worlds of ``active`` (B,) bool (default all); ``ok`` (B,) bool scratch."""
+        active = np.ones(P.shape[0], dtype=np.bool_) if active is None else active
         if P.shape[1] > self._scratch.shape[0]:
             raise ValueError(
                 f"a belief of {P.shape[1]} rows is more than {self.max_landmarks} landmarks"
             )
         belief_entropy(
-            P, n, self.max_landmarks, ENTROPY_FLOOR, self.prior_log_det, self._scratch, out, ok
-        )
-        if not ok.all():
-            for b in np.flatnonzero(~ok).tolist():
+            P, n, self.max_landmarks, ENTROPY_FLOOR, self.prior_log_det, self._scratch, out, ok,
+            active,
+        )  # fmt: skip
+        if not ok[active].all():
+            for b in np.flatnonzero(active & ~ok).tolist():
                 d = 3 + 2 * int(n[b])
                 shifted = P[b, :d, :d] + ENTROPY_FLOOR * np.eye(d)
                 live = metrics.log_det_psd(shifted, copy=False)

@@ -391,7 +391,7 @@ def _check_belief_work(config: EnvConfig, world: WorldSize, belief: str) -> None
 def _check_observation_bounds(config: EnvConfig, world: WorldSize, belief: str | None) -> None:
     """Every bound of the observation space must be a finite float32."""
     from slam_env.belief import BeliefGeometry
-    from slam_env.env import detection_reach, odometry_translation_bound
+    from slam_env.raw_core import detection_reach, odometry_translation_bound
 
     bounds = {
         "odometry bound = 4·max_speed·dt + 1 m": odometry_translation_bound(config),

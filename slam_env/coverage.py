@@ -15,11 +15,14 @@ from typing import Any, SupportsFloat
 import gymnasium as gym
 import numpy as np
 
+from slam_env.config import SensorConfig
 from slam_env.kernels import coverage as kernels
 from slam_env.kernels.belief_state import SINGLE, filter_belief
 from slam_env.kernels.coverage import CoverageTables, coverage_step
 
 TWO_PI = 2.0 * math.pi
+# m, the side of a coverage cell (the wrapper's default).
+COVERAGE_CELL = 0.5
 
 
 class CoverageGrid:
@@ -52,6 +55,8 @@ class CoverageGrid:
         sectors: sectors around the robot.
         ring_edges: m, increasing inner edges of the rings after the first.
         heading_bins: directions the heading is rounded to.
+        worlds: how many grids of this geometry to keep (the sub-envs of a vector env,
+            :meth:`step_all`); the methods that take one pose act on world 0.
     """
 
     def __init__(
@@ -65,6 +70,7 @@ class CoverageGrid:
         sectors: int = 8,
         ring_edges: tuple[float, ...] = (5.0, 10.0),
         heading_bins: int = 72,
+        worlds: int = SINGLE,
     ) -> None:
         for name, value in (("width", width), ("height", height), ("cell", cell)):
             if not (math.isfinite(value) and value > 0.0):
@@ -73,7 +79,11 @@ class CoverageGrid:
             raise ValueError(f"CoverageGrid sweep_range must be finite and >= 0, got {sweep_range}")
         if not 0.0 < fov <= TWO_PI:
             raise ValueError(f"CoverageGrid fov must be in (0, 2π], got {fov}")
-        for name, value in (("sectors", sectors), ("heading_bins", heading_bins)):
+        for name, value in (
+            ("sectors", sectors),
+            ("heading_bins", heading_bins),
+            ("worlds", worlds),
+        ):
             if isinstance(value, bool) or not isinstance(value, int) or value < 1:
                 raise ValueError(f"CoverageGrid {name} must be an int >= 1, got {value!r}")
         edges = np.asarray(ring_edges, dtype=np.float64)
@@ -123,21 +133,47 @@ class CoverageGrid:
         self.tables = CoverageTables(
             self.cell, heading_bins, p, footprints, sizes.astype(np.int64), codes
         )
-        # The grid is a batch of one world of the coverage kernels.
-        self._padded = np.ones((SINGLE, self.ny + 2 * p, stride), dtype=np.bool_)
-        self._n_swept = np.zeros(SINGLE, dtype=np.int64)
+        # The grids of the worlds, as the coverage kernels take them.
+        self._padded = np.ones((worlds, self.ny + 2 * p, stride), dtype=np.bool_)
+        self._n_swept = np.zeros(worlds, dtype=np.int64)
         self._setup_scratch()
         self.reset()
 
+    @classmethod
+    def for_sensor(
+        cls,
+        width: float,
+        height: float,
+        sensor: SensorConfig,
+        *,
+        cell: float = COVERAGE_CELL,
+        worlds: int = SINGLE,
+    ) -> CoverageGrid:
+        """The grid a landmark sensor sweeps (see :class:`CoverageWrapper`): its FOV,
+        and its range less one cell, so that a cell counts as swept only well inside
+        it; rings at R and 2R, R the range."""
+        reach = sensor.max_range
+        return cls(
+            width,
+            height,
+            sweep_range=max(reach - cell, 0.0),
+            fov=sensor.fov,
+            cell=cell,
+            ring_edges=(reach, 2.0 * reach),
+            worlds=worlds,
+        )
+
     # Views and scratch buffers: rebuilt on unpickling, never pickled (a view
     # would come back as a copy, detached from the padded grid).
-    _TRANSIENT = ("_flat", "_pose", "_new", "_out")
+    _TRANSIENT = ("_flat", "_pose", "new_cells", "_all", "_out")
 
     def _setup_scratch(self) -> None:
-        self._flat = self._padded.reshape(SINGLE, -1)  # a view: the padded grid is contiguous
-        self._pose = np.empty((SINGLE, 3))
-        self._new = np.empty(SINGLE, dtype=np.int64)
-        self._out = np.empty((SINGLE, 1 + self.n_features))  # [swept fraction, features...]
+        worlds = self._padded.shape[0]
+        self._flat = self._padded.reshape(worlds, -1)  # a view: the padded grid is contiguous
+        self._pose = np.zeros((worlds, 3))  # world 0's pose, for the one-pose methods
+        self.new_cells = np.empty(worlds, dtype=np.int64)
+        self._all = np.ones(worlds, dtype=np.bool_)
+        self._out = np.empty((worlds, 1 + self.n_features))  # [swept fraction, features...]
 
     def __getstate__(self) -> dict[str, Any]:
         return {k: v for k, v in self.__dict__.items() if k not in self._TRANSIENT}
@@ -160,13 +196,18 @@ class CoverageGrid:
 
     @property
     def swept_fraction(self) -> float:
-        """Share of the arena's cells swept so far."""
-        return self._n_swept.item() / self.size
+        """Share of the arena's cells swept so far (world 0)."""
+        return self._n_swept[0].item() / self.size
 
-    def reset(self) -> None:
-        """Forget everything swept."""
-        self.swept[:] = False
-        self._n_swept[0] = 0
+    def swept_fractions(self) -> np.ndarray:
+        """(worlds,) float64: each world's share of the arena swept so far."""
+        return self._n_swept / self.size
+
+    def reset(self, index: int = 0) -> None:
+        """Forget everything world ``index`` swept."""
+        p = self.tables.pad
+        self._padded[index, p : p + self.ny, p : p + self.nx] = False
+        self._n_swept[index] = 0
 
     def cell_of(self, x: float, y: float) -> tuple[int, int]:
         """(row, column) of the cell holding (x, y), clamped into the grid (a diverged
@@ -182,7 +223,7 @@ class CoverageGrid:
         """Mark the footprint seen from pose (x, y, θ) swept; return the new cells."""
         self._pose[0] = (x, y, theta)
         self._step(self._pose, True)
-        return self._new.item()
+        return self.new_cells[0].item()
 
     def features(self, x: float, y: float, theta: float) -> np.ndarray:
         """(n_features,) float64 in [0, 1]: the unswept share per sector and ring
@@ -192,18 +233,29 @@ class CoverageGrid:
 
     def coverage(self, pose: np.ndarray) -> np.ndarray:
         """(1 + n_features,) float64: the swept fraction, then the features around
-        ``pose`` ((1, ≥ 3) float64, x, y, θ first). A view of scratch that the next
-        call overwrites."""
-        return self._step(pose, False)
+        ``pose`` ((1, ≥ 3) float64, x, y, θ first) of a one-world grid. A view of
+        scratch that the next call overwrites."""
+        return self._step(pose, False)[0]
 
     def sweep_and_cover(self, pose: np.ndarray) -> np.ndarray:
         """:meth:`sweep` from ``pose`` ((1, ≥ 3) float64, x, y, θ first), then
-        :meth:`coverage` there, in one kernel call."""
-        return self._step(pose, True)
+        :meth:`coverage` there, in one kernel call, for a one-world grid."""
+        return self._step(pose, True)[0]
 
-    def _step(self, pose: np.ndarray, sweep: bool) -> np.ndarray:
-        coverage_step(*self.tables, self._flat, self._n_swept, pose, sweep, self._new, self._out)
-        return self._out[0]
+    def step_all(self, poses: np.ndarray, active: np.ndarray) -> np.ndarray:
+        """Each active world's (``active`` (worlds,) bool) sweep from its pose (``poses``
+        (worlds, ≥ 3) float64, x, y, θ first), then its coverage there:
+        (worlds, 1 + n_features) float64, a view of scratch that the next call
+        overwrites (the inactive worlds' rows stale); :attr:`new_cells` the cells each
+        swept."""
+        return self._step(poses, True, active)
+
+    def _step(self, poses: np.ndarray, sweep: bool, active: np.ndarray | None = None) -> np.ndarray:
+        active = self._all if active is None else active
+        coverage_step(
+            *self.tables, self._flat, self._n_swept, poses, sweep, self.new_cells, self._out, active
+        )
+        return self._out
 
 
 class CoverageWrapper(gym.ObservationWrapper):
@@ -225,7 +277,7 @@ class CoverageWrapper(gym.ObservationWrapper):
         cell: m, the grid's cell side.
     """
 
-    def __init__(self, env: gym.Env, cell: float = 0.5) -> None:
+    def __init__(self, env: gym.Env, cell: float = COVERAGE_CELL) -> None:
         super().__init__(env)
         try:
             self._filter = env.get_wrapper_attr("filter")
@@ -234,14 +286,7 @@ class CoverageWrapper(gym.ObservationWrapper):
         base = env.unwrapped
         sensor = base.config.sensor
         width, height = base.arena_size
-        self.grid = CoverageGrid(
-            width,
-            height,
-            sweep_range=max(sensor.max_range - cell, 0.0),
-            fov=sensor.fov,
-            cell=cell,
-            ring_edges=(sensor.max_range, 2.0 * sensor.max_range),
-        )
+        self.grid = CoverageGrid.for_sensor(width, height, sensor, cell=cell)
         n = 1 + self.grid.n_features
         space = gym.spaces.Box(0.0, 1.0, (n,), np.float32)
         inner = env.observation_space

@@ -138,6 +138,7 @@ class EKFSLAMWrapper(gym.ObservationWrapper):
         self._diagnostics = np.empty((len(DIAGNOSTICS), SINGLE))
         self._clipped = np.empty(SINGLE, dtype=np.bool_)
         self._no_tail = np.empty((SINGLE, 0), dtype=np.float32)
+        self._one = np.ones(SINGLE, dtype=np.bool_)  # the kernels' mask: the one world
         if observation == "full":
             self._encoding = FullEncoding(self._geometry)
         else:
@@ -226,18 +227,11 @@ class EKFSLAMWrapper(gym.ObservationWrapper):
 
     def belief_overlay(self, true_landmarks: Any = None) -> BeliefOverlay:
         f = self.filter
-        return BeliefOverlay(
-            pose=f.pose,
-            pose_cov=f.pose_cov,
-            landmark_ids=f.state_to_id,
-            landmark_means=f.landmark_means(),
-            landmark_covs=f.landmark_covs(),
-            true_landmarks=true_landmarks,
-        )
+        return BeliefOverlay.from_state(f.mean, f.cov, f.state_to_id, true_landmarks)
 
     def render(self) -> Any:
         base = self.env.unwrapped
-        if base.render_mode is not None and base._world is not None:
+        if base.render_mode is not None and base._started:
             base.belief_overlay = self.belief_overlay()
         return self.env.render()
 
@@ -267,7 +261,9 @@ class EKFSLAMWrapper(gym.ObservationWrapper):
         belief = filter_belief(f)
         obs, clipped = self._encode(belief, raw)
         diagnostics = self._diagnostics
-        belief_diagnostics(*belief, info["pose"][None], self._true_landmarks, diagnostics)
+        belief_diagnostics(
+            *belief, info["pose"][None], self._true_landmarks, diagnostics, self._one
+        )
         # (In DIAGNOSTICS order.)
         pose_error, heading_error, map_rmse, pose_nees, pose_std = diagnostics.ravel().tolist()
         self._entropy.batch(belief.P, belief.n, self._entropy_out, self._entropy_ok)
@@ -346,6 +342,7 @@ class ActiveSLAMReward(gym.Wrapper):
         self._last = np.zeros((SINGLE, 2))  # the previous entropy and swept fraction
         self._terms = np.zeros((SINGLE, len(REWARD_TERMS)))
         self._reward = np.zeros(SINGLE)
+        self._one = np.ones(SINGLE, dtype=np.bool_)  # the kernel's mask: the one world
 
     @property
     def weights(self) -> ActiveSLAMRewardWeights:
@@ -374,7 +371,9 @@ class ActiveSLAMReward(gym.Wrapper):
         now.pose_std[0] = info["pose_std"]
         now.collision[0] = info["collision"]
         now.swept_fraction[0] = _swept_fraction(info)
-        active_slam_reward(self._weight_array, *now, self._last, self._terms, self._reward)
+        active_slam_reward(
+            self._weight_array, *now, self._last, self._terms, self._reward, self._one
+        )
         info["raw_reward_terms"] = info.pop("reward_terms", {})
         info["reward_terms"] = dict(zip(REWARD_TERMS, self._terms[0].tolist(), strict=True))
         return obs, self._reward.item(), terminated, truncated, info

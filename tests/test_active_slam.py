@@ -9,7 +9,6 @@ import pytest
 
 import slam_env  # noqa: F401
 from slam_env.active_slam import DEFAULT_SCAN_BEAMS, ActiveSLAMEnv
-from slam_env.coverage import CoverageWrapper
 from slam_env.wrappers import ActiveSLAMRewardWeights
 
 ENV_ID = "slam_env/ActiveSLAM-v0"
@@ -41,11 +40,11 @@ def test_a_scan_of_sixteen_beams_and_the_bumper_unless_the_options_say_otherwise
 
 def test_reward_weights_as_a_dict_or_dataclass():
     from_dict = ActiveSLAMEnv(reward_weights={"coverage": 20.0, "step": 0.5})
-    weights = from_dict._stack.weights
+    weights = from_dict.reward_weights
     assert weights == ActiveSLAMRewardWeights(coverage=20.0, step=0.5)
     given = ActiveSLAMRewardWeights(collision=2.0)
-    assert ActiveSLAMEnv(reward_weights=given)._stack.weights is given
-    assert ActiveSLAMEnv()._stack.weights == ActiveSLAMRewardWeights()
+    assert ActiveSLAMEnv(reward_weights=given).reward_weights is given
+    assert ActiveSLAMEnv().reward_weights == ActiveSLAMRewardWeights()
 
 
 def test_unknown_reward_weights_are_named():
@@ -54,11 +53,8 @@ def test_unknown_reward_weights_are_named():
 
 
 @pytest.mark.parametrize("coverage", [True, False])
-def test_the_stack(coverage):
+def test_the_observation_holds_the_belief_the_sensors_and_the_coverage(coverage):
     env = ActiveSLAMEnv(coverage=coverage)
-    assert isinstance(env._stack.env, CoverageWrapper) is coverage
-    assert env.filter is env.belief_wrapper.filter
-    assert env.config is env.raw_env.config
     size = BELIEF_FEATURES + 17 + COVERAGE_FEATURES * coverage
     assert env.observation_space.shape == (size,)
     with pytest.raises(TypeError, match="coverage must be a bool"):
@@ -69,7 +65,7 @@ def test_one_random_stream_and_the_same_run_for_the_same_seed():
     a, b = gym.make(ENV_ID), gym.make(ENV_ID)
     a.reset(seed=12)
     b.reset(seed=12)
-    assert a.unwrapped.np_random is a.unwrapped.raw_env.np_random
+    assert a.unwrapped.np_random is a.unwrapped._core.rngs[0]  # the one stream it draws from
     for _ in range(30):
         action = np.array([0.7, -0.4], np.float32)
         step_a, step_b = a.step(action), b.step(action)

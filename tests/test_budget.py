@@ -89,8 +89,8 @@ def nothing_is_built(monkeypatch):
     def forbidden(*args, **kwargs):
         raise AssertionError("built before the budget was checked")
 
-    monkeypatch.setattr("slam_env.env.layout_for", forbidden)
-    monkeypatch.setattr("slam_env.env.World", forbidden)
+    monkeypatch.setattr("slam_env.world_batch.layout_for", forbidden)
+    monkeypatch.setattr("slam_env.world_batch.World", forbidden)
     monkeypatch.setattr("slam_env.layouts.Layout.validate", forbidden)
     monkeypatch.setattr("slam_env.wrappers.EKFSLAM", forbidden)
     monkeypatch.setattr("slam_env.coverage.CoverageGrid", forbidden)

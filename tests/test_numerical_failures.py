@@ -10,6 +10,9 @@ import numpy as np
 import pytest
 
 import slam_env  # noqa: F401  (registers the env IDs)
+from slam_env.env import LandmarksEnv
+from slam_env.kernels import ekf
+from slam_env.wrappers import EKFSLAMWrapper
 
 ACTIVE = "slam_env/ActiveSLAM-v0"
 FORWARD = np.array([0.8, 0.2], dtype=np.float32)
@@ -29,14 +32,19 @@ def _failing(exc: Exception):
     return fail
 
 
+def _wrapper_stack():
+    """The composable wrapper over the raw env, whose filter raises on a failure."""
+    return EKFSLAMWrapper(LandmarksEnv(n_landmarks=8, max_range=8.0, fov=6.28))
+
+
 @pytest.mark.parametrize("call", ["predict", "update"])
 @pytest.mark.parametrize("exc", NUMERICAL, ids=lambda e: type(e).__name__)
-def test_a_numerical_failure_is_reported_as_diverged(call, exc, monkeypatch):
-    env = gym.make(ACTIVE, n_landmarks=8, max_range=8.0, fov=6.28)
+def test_a_numerical_failure_is_reported_as_diverged_by_the_wrapper(call, exc, monkeypatch):
+    env = _wrapper_stack()
     env.reset(seed=0)
     _, _, _, _, info = env.step(FORWARD)
     assert not info["diverged"] and info["landmarks_known"] > 0
-    monkeypatch.setattr(env.unwrapped.filter, call, _failing(exc))
+    monkeypatch.setattr(env.filter, call, _failing(exc))
     for _ in range(3):
         obs, reward, _, _, info = env.step(FORWARD)
         assert env.observation_space.contains(obs) and math.isfinite(reward)
@@ -48,11 +56,37 @@ def test_a_numerical_failure_is_reported_as_diverged(call, exc, monkeypatch):
 
 
 def test_other_exceptions_from_the_filter_are_not_hidden(monkeypatch):
-    env = gym.make(ACTIVE)
+    env = _wrapper_stack()
     env.reset(seed=0)
-    monkeypatch.setattr(env.unwrapped.filter, "predict", _failing(KeyError("a bug")))
+    monkeypatch.setattr(env.filter, "predict", _failing(KeyError("a bug")))
     with pytest.raises(KeyError):
         env.step(FORWARD)
+
+
+@pytest.mark.parametrize("call", ["predict", "update"])
+@pytest.mark.parametrize("code", [ekf.NOT_POSITIVE_DEFINITE, ekf.NOT_FINITE, ekf.OVERFLOW])
+def test_a_kernel_failure_is_reported_as_diverged_by_the_env(call, code, monkeypatch):
+    """ActiveSLAM-v0's filters report a failure by an error code (their state as it
+    was): the env reports ``diverged`` until the next reset, and never raises."""
+    env = gym.make(ACTIVE, n_landmarks=8, max_range=8.0, fov=6.28)
+    env.reset(seed=0)
+    _, _, _, _, info = env.step(FORWARD)
+    assert not info["diverged"] and info["landmarks_known"] > 0
+    filters = env.unwrapped._core.filters
+
+    def fail(mask):
+        filters.error[:] = np.where(mask, code, 0)
+
+    monkeypatch.setattr(filters, call, fail)
+    for _ in range(3):
+        obs, reward, _, _, info = env.step(FORWARD)
+        assert env.observation_space.contains(obs) and math.isfinite(reward)
+        assert info["diverged"]
+    monkeypatch.undo()
+    _, _, _, _, info = env.step(FORWARD)
+    assert info["diverged"]  # until the next reset
+    _, info = env.reset(seed=1)
+    assert not info["diverged"]
 
 
 @pytest.mark.parametrize(

@@ -111,7 +111,7 @@ def test_step_before_reset_and_lifecycle_after_close(make):
     env.reset(seed=0)
     twin.reset(seed=0)
     first = env.render()
-    raw = env.unwrapped if make is slam_env.env.LandmarksEnv else env.raw_env
+    raw = env.unwrapped
     assert raw._renderer is not None
     env.close()
     assert raw._renderer is None

@@ -29,9 +29,7 @@ class BeliefBatch(NamedTuple):
 
 
 def filter_belief(f: EKFSLAM) -> BeliefBatch:
-    """One :class:`slam_env.ekf.EKFSLAM`'s live belief as a batch of one: views of
-    its storage (none copied), the landmark count in a fresh array. Call it again
-    after the filter is reset or unpickled (its storage may have been replaced)."""
-    return BeliefBatch(
-        f._x[None], f._P[None], np.full(SINGLE, f._n, dtype=np.int64), f._slot_to_id[None]
-    )
+    """One :class:`slam_env.ekf.EKFSLAM`'s live belief as a batch of one: its storage
+    itself, which is a batch of one (nothing copied). Call it again after the filter
+    is unpickled or copied (that one has storage of its own)."""
+    return BeliefBatch(f._xb, f._Pb, f._nb, f._slot_to_id_b)

@@ -120,6 +120,7 @@ def coverage_step(
     sweep: bool,
     new_cells: np.ndarray,
     features: np.ndarray,
+    active: np.ndarray,
 ) -> None:
     """One step of B worlds' coverage (the :class:`CoverageTables` first, then the
     state): if ``sweep``, sweep world b's footprint from the pose (x, y, θ) in the
@@ -130,6 +131,8 @@ def coverage_step(
     nx = (codes.shape[2] + 1) // 2
     counts = np.empty(2 * (features.shape[1] - 1), dtype=np.int64)
     for b in range(poses.shape[0]):
+        if not active[b]:
+            continue
         i, j = cell_of(cell, codes, poses[b, 0], poses[b, 1])
         h = heading_bin(heading_bins, poses[b, 2])
         if sweep:

@@ -59,6 +59,7 @@ def belief_diagnostics(
     true_pose: np.ndarray,
     true_landmarks: np.ndarray,
     out: np.ndarray,
+    active: np.ndarray,
 ) -> None:
     """The diagnostics of world b's belief (``x``, ``P``, ``n``, ``slot_to_id`` as in
     :class:`slam_env.kernels.belief_state.BeliefBatch`) against its true pose
@@ -66,6 +67,8 @@ def belief_diagnostics(
     ((B, M, 2), by landmark ID), into ``out[:, b]`` ((len(DIAGNOSTICS), B) float64,
     a row per diagnostic)."""
     for b in range(x.shape[0]):
+        if not active[b]:
+            continue
         e0 = x[b, 0] - true_pose[b, 0]
         e1 = x[b, 1] - true_pose[b, 1]
         e2 = wrap(x[b, 2] - true_pose[b, 2])

@@ -39,6 +39,7 @@ def encode_egocentric(
     tail: np.ndarray,
     out: np.ndarray,
     clipped: np.ndarray,
+    active: np.ndarray,
 ) -> None:
     """World b's features into ``out[b, :F]`` (float32), then ``tail[b]`` ((B, T)
     float32, the raw proximity readings, already inside their bounds) as it is.
@@ -51,6 +52,8 @@ def encode_egocentric(
     size = low.shape[0]
     feat = np.zeros(size)
     for b in range(x.shape[0]):
+        if not active[b]:
+            continue
         feat[:] = 0.0
         px, py, theta = x[b, 0], x[b, 1], x[b, 2]
         c, s = math.cos(theta), math.sin(theta)

@@ -41,6 +41,7 @@ def belief_entropy(
     scratch: np.ndarray,
     entropy: np.ndarray,
     ok: np.ndarray,
+    active: np.ndarray,
 ) -> None:
     """``entropy[b]`` of world b's belief (``P`` (B, dmax, dmax), ``n`` (B,) landmarks
     in the state) over all ``slots`` landmark slots, for Σ + ``floor``·I.
@@ -52,6 +53,8 @@ def belief_entropy(
     which kernels do without).
     """
     for b in range(P.shape[0]):
+        if not active[b]:
+            continue
         d = 3 + 2 * n[b]
         for i in range(d):
             for j in range(i):

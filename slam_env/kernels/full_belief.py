@@ -48,6 +48,7 @@ def encode_full(
     cov: np.ndarray,
     known: np.ndarray,
     clipped: np.ndarray,
+    active: np.ndarray,
 ) -> None:
     """World b's belief into ``mean[b]``, ``cov[b]``, ``known[b]`` (a
     :class:`FullBelief`): entries clipped to ``±mean_bound`` ((D,) float64) and
@@ -55,6 +56,8 @@ def encode_full(
     any entry was changed (or NaN)."""
     dim = mean_bound.shape[0]
     for b in range(x.shape[0]):
+        if not active[b]:
+            continue
         mean[b, :] = 0.0
         cov[b, :] = 0.0
         known[b, :] = 0.0

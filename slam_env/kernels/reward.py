@@ -37,12 +37,15 @@ def active_slam_reward(
     last: np.ndarray,
     terms: np.ndarray,
     reward: np.ndarray,
+    active: np.ndarray,
 ) -> None:
     """``terms[b]`` ((B, 5) float64, in the order above) and ``reward[b]`` of world b's
     step (the :class:`RewardSignals` ``entropy`` … ``swept_fraction``) against
     ``last[b]`` ((B, 2) float64: the previous entropy and swept fraction, which then
     take this step's, the baseline of the next). ``weights`` (5,) float64, each ≥ 0."""
     for b in range(terms.shape[0]):
+        if not active[b]:
+            continue
         terms[b, 0] = weights[0] * (last[b, 0] - entropy[b])
         terms[b, 1] = -weights[1] * pose_std[b]
         terms[b, 2] = -weights[2] if collision[b] else 0.0

@@ -59,6 +59,7 @@ def test_filter_belief_views_the_filters_storage():
     assert belief.x.shape == (1, 11) and belief.P.shape == (1, 11, 11)
     assert belief.n.tolist() == [2] and belief.slot_to_id[0, :2].tolist() == [3, 1]
     assert np.shares_memory(belief.x, f._x) and np.shares_memory(belief.P, f._P)
+    assert np.shares_memory(belief.n, f._nb)  # the live count, not a copy
     np.testing.assert_array_equal(belief.x[0, :7], f.mean)
     np.testing.assert_array_equal(belief.P[0, :7, :7], f.cov)
 
@@ -81,7 +82,9 @@ def test_a_world_not_positive_definite_is_flagged_and_finished_by_the_fallback()
     P[1, 4, 4] = -1.0  # indefinite even with the floor
     entropy = BeliefEntropy(M, GEOMETRY.width, GEOMETRY.height)
     out, ok = np.empty(3), np.empty(3, dtype=np.bool_)
-    belief_entropy(P, batch.n, M, 1e-4, entropy.prior_log_det, np.empty((DMAX, DMAX)), out, ok)
+    scratch = np.empty((DMAX, DMAX))
+    everyone = np.ones(len(COUNTS), dtype=np.bool_)
+    belief_entropy(P, batch.n, M, 1e-4, entropy.prior_log_det, scratch, out, ok, everyone)
     assert ok.tolist() == [True, False, True] and math.isnan(out[1])
     entropy.batch(P, batch.n, out, ok)
     for b in range(3):
@@ -97,7 +100,7 @@ def test_diagnostics_kernel_matches_the_reference():
     true_pose[0, 2] = batch.x[0, 2] + 2 * math.pi - 0.01  # the heading error wraps
     truth = rng.uniform(0, 12, size=(B, M, 2))
     rows = np.empty((len(DIAGNOSTICS), B))
-    belief_diagnostics(*batch, true_pose, truth, rows)
+    belief_diagnostics(*batch, true_pose, truth, rows, np.ones(batch.x.shape[0], dtype=np.bool_))
     out = dict(zip(DIAGNOSTICS, rows, strict=True))
     for b in range(B):
         mean, cov, ids = live(batch, b)
@@ -127,6 +130,7 @@ def test_diagnostics_of_degenerate_beliefs():
         np.zeros((2, 3)),
         np.zeros((2, 0, 2)),
         rows,
+        np.ones(2, dtype=np.bool_),
     )
     out = dict(zip(DIAGNOSTICS, rows.tolist(), strict=True))
     assert out["pose_nees"] == [0.0, math.inf]  # exactly right; singular and wrong
@@ -224,7 +228,9 @@ def test_coverage_of_b_worlds_sharing_one_table():
     new = np.empty(B, np.int64)
     features = np.empty((B, 1 + together.n_features))
     for step in poses:
-        coverage_step(*together.tables, flat, n_swept, step, True, new, features)
+        coverage_step(
+            *together.tables, flat, n_swept, step, True, new, features, np.ones(len(step), np.bool_)
+        )
         for b, grid in enumerate(alone):
             assert new[b] == grid.sweep(*step[b])
             np.testing.assert_array_equal(features[b, 1:], grid.features(*step[b]))
@@ -247,7 +253,7 @@ def test_reward_kernel_is_the_sum_of_its_terms_in_order():
         rng.uniform(0.5, 1, B),
     )
     terms, reward = np.empty((B, 5)), np.empty(B)
-    active_slam_reward(weights, *now, last, terms, reward)
+    active_slam_reward(weights, *now, last, terms, reward, np.ones(len(reward), dtype=np.bool_))
     for b in range(B):
         w = weights.tolist()
         expected = [
@@ -260,3 +266,25 @@ def test_reward_kernel_is_the_sum_of_its_terms_in_order():
         assert terms[b].tolist() == expected
         assert reward[b] == sum(expected)
     np.testing.assert_array_equal(last, np.stack([now.entropy, now.swept_fraction], axis=1))
+
+
+def test_the_belief_kernels_leave_inactive_worlds_as_they_were():
+    """A world outside the mask (a sub-env being reset) is neither read nor written."""
+    batch = random_batch(np.random.default_rng(9), COUNTS)
+    b = len(COUNTS)
+    active = np.ones(b, dtype=np.bool_)
+    active[1] = False
+    true_pose = np.zeros((b, 3))
+    truth = np.zeros((b, M, 2))
+    rows = np.full((len(DIAGNOSTICS), b), 7.0)
+    belief_diagnostics(*batch, true_pose, truth, rows, active)
+    assert (rows[:, 1] == 7.0).all() and not (rows[:, 0] == 7.0).all()
+    out, ok = np.full(b, 7.0), np.ones(b, dtype=np.bool_)
+    BeliefEntropy(M, 16.0, 12.0).batch(batch.P, batch.n, out, ok, active)
+    assert out[1] == 7.0 and out[0] != 7.0
+    terms, reward = np.full((b, 5), 7.0), np.full(b, 7.0)
+    last = np.zeros((b, 2))
+    now = (np.ones(b), np.ones(b), np.zeros(b, np.bool_), np.zeros(b))
+    active_slam_reward(np.ones(5), *now, last, terms, reward, active)
+    assert (terms[1] == 7.0).all() and reward[1] == 7.0 and (last[1] == 0.0).all()
+    assert reward[0] != 7.0 and last[0, 0] == 1.0

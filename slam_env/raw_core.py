@@ -1,0 +1,432 @@
+"""The raw sensor stream of B sub-envs of one config: a step is a few kernel calls.
+
+:class:`RawCore` is what ``slam_env/Landmarks-v0`` runs as a batch of one and its
+native vector env runs for B sub-envs, so that both share every line of the model.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+from gymnasium import spaces
+
+from slam_env.config import EnvConfig
+from slam_env.kernels.faults import (
+    FAULT_UNIFORMS,
+    KIDNAP_UNIFORM,
+    FaultParams,
+    corrupt_odometry,
+    corrupt_scans,
+)
+from slam_env.kernels.observe import RawOutputs, RawParams, observe_raw
+from slam_env.kernels.odometry import odometry_uniforms, read_odometry
+from slam_env.kernels.sensing import (
+    SensorParams,
+    proximity_scan,
+    scan_uniforms,
+    sense_landmarks,
+)
+from slam_env.layouts import Layout
+from slam_env.random_blocks import RandomBlocks
+from slam_env.world_batch import WorldBatch
+
+# Headroom of the odometry translation bound over the largest physical motion of a
+# step: the noise is proportional to the motion, so a reading beyond this is a >10σ event.
+ODOMETRY_TRANSLATION_HEADROOM = 4.0
+# Detections are clipped to the sensor's range plus this many range standard deviations.
+RANGE_HEADROOM_STD = 6.0
+# Spurious detections (the outlier fault) lie at least this far away, m.
+OUTLIER_MIN_RANGE = 0.5
+
+
+def odometry_translation_bound(config: EnvConfig) -> float:
+    """The bound (m) of the odometry's translation reading (δtr or Δp)."""
+    return ODOMETRY_TRANSLATION_HEADROOM * config.robot.max_speed * config.dt + 1.0
+
+
+def detection_reach(config: EnvConfig) -> float:
+    """The bound (m) of a detection's range (or robot-frame coordinates)."""
+    sensor = config.sensor
+    return sensor.max_range + RANGE_HEADROOM_STD * max(sensor.range_std, sensor.cartesian_std)
+
+
+def raw_observation_space(
+    config: EnvConfig, n_slots: int, max_detections: int
+) -> tuple[spaces.Dict, RawParams]:
+    """The raw observation space of one sub-env, and the bounds its values are clipped
+    to with the reward's constants (see :class:`slam_env.env.LandmarksEnv`)."""
+    trans_bound = odometry_translation_bound(config)
+    if config.odometry.motion_model == "odometry":
+        odo_high = np.array([math.pi, trans_bound, math.pi], dtype=np.float32)
+    else:
+        odo_high = np.array([trans_bound, math.pi], dtype=np.float32)
+    sensor = config.sensor
+    reach = detection_reach(config)
+    if sensor.measurement_model == "range_bearing":
+        det_low = np.array([0.0, -math.pi], dtype=np.float32)
+        det_high = np.array([reach, math.pi], dtype=np.float32)
+    else:
+        det_low = np.full(2, -reach, dtype=np.float32)
+        det_high = np.full(2, reach, dtype=np.float32)
+    d = max_detections
+    obs_spaces = {
+        "odometry": spaces.Box(-odo_high, odo_high, dtype=np.float32),
+        "detections": spaces.Box(np.tile(det_low, d), np.tile(det_high, d), dtype=np.float32),
+        "ids": spaces.Box(-1.0, float(n_slots - 1), (d,), np.float32),
+        "mask": spaces.Box(0.0, 1.0, (d,), np.float32),
+    }
+    if sensor.scan_beams:
+        obs_spaces["scan"] = spaces.Box(0.0, 1.0, (sensor.scan_beams,), np.float32)
+    if sensor.bumper:
+        obs_spaces["bumper"] = spaces.Box(0.0, 1.0, (1,), np.float32)
+    params = RawParams(
+        (-odo_high).astype(np.float64),
+        odo_high.astype(np.float64),
+        det_low.astype(np.float64),
+        det_high.astype(np.float64),
+        float(config.reward.new_landmark_bonus),
+        float(config.reward.collision_penalty),
+    )
+    return spaces.Dict(obs_spaces), params
+
+
+class BatchCore:
+    """What both batched cores offer on top of their ``advance``: one sub-env's reset,
+    and a step of some sub-envs."""
+
+    rngs: list[np.random.Generator | None]
+    _idle: list[float]  # the speeds and turn rates of sub-envs that only reset
+    _none: np.ndarray  # (B,) False: no sub-env steps
+
+    def advance(
+        self, speed: list[float], turn: list[float], stepping: np.ndarray, resetting: Sequence[int]
+    ) -> list[Layout]:
+        raise NotImplementedError
+
+    def reset(self, index: int, rng: np.random.Generator) -> Layout:
+        """Start sub-env ``index`` on a new episode, its randomness from ``rng``."""
+        self.rngs[index] = rng
+        return self.advance(self._idle, self._idle, self._none, [index])[0]
+
+    def step(self, speed: list[float], turn: list[float], active: np.ndarray) -> None:
+        """One step of the active sub-envs (see :meth:`advance`)."""
+        self.advance(speed, turn, active, ())
+
+
+class RawCore(BatchCore):
+    """B sub-envs of ``slam_env/Landmarks-v0`` with one config, stepped together.
+
+    Each sub-env has its own generator (:attr:`rngs`, set by :meth:`reset`), its own
+    world and its own row of every array; :meth:`step` moves the robots (pymunk) and
+    runs the odometry, fault, sensor and observation kernels over all of them at once.
+    Results stay in the arrays until the next call: :meth:`observation` and
+    :meth:`info` copy one sub-env's out, :meth:`observations` and :meth:`infos` all.
+    """
+
+    def __init__(self, config: EnvConfig, num_envs: int) -> None:
+        self.config = config
+        self.num_envs = num_envs
+        self.worlds = WorldBatch(config, num_envs)
+        self.n_landmarks = self.worlds.n_landmarks
+        self.n_slots = self.worlds.n_slots
+        self.arena_size = self.worlds.arena_size
+        sensor = config.sensor
+        self.max_detections = d = sensor.max_detections or self.n_landmarks
+        self.velocity_model = config.odometry.motion_model == "velocity"
+        self.control_dim = 2 if self.velocity_model else 3
+        self.observation_space, self._params = raw_observation_space(
+            config, self.n_slots, self.max_detections
+        )
+        cartesian = sensor.measurement_model == "cartesian"
+        self._sensor = SensorParams(
+            float(sensor.max_range),
+            0.5 * float(sensor.fov),
+            0.5 * sensor.fov >= math.pi,
+            float(sensor.detection_prob),
+            d,
+            cartesian,
+            float(sensor.cartesian_std if cartesian else sensor.range_std),
+            float(sensor.cartesian_std if cartesian else sensor.bearing_std),
+        )
+        odometry = config.odometry
+        self._noise = np.array(
+            odometry.velocity_noise if self.velocity_model else odometry.alphas, dtype=np.float64
+        )
+        beams = sensor.scan_beams
+        self._beam_angles = -math.pi + 2.0 * math.pi * (np.arange(beams) + 0.5) / beams
+        faults = config.faults
+        self.faults_on = faults.any
+        self._faults = FaultParams(
+            float(faults.scan_dropout),
+            float(faults.outlier_rate),
+            float(faults.odometry_dropout),
+            OUTLIER_MIN_RANGE,
+            float(sensor.max_range),
+            min(float(sensor.fov), 2.0 * math.pi - 1e-9),
+            cartesian,
+        )
+        bias = faults.odometry_bias
+        self._bias = np.zeros(self.control_dim) if bias is None else np.array(bias, float)
+
+        # Each step's uniforms: the odometry reading, the scan, then the faults.
+        self._scan_offset = odometry_uniforms(self.control_dim)
+        self._fault_offset = self._scan_offset + scan_uniforms(self.n_landmarks, d)
+        width = self._fault_offset + (FAULT_UNIFORMS if self.faults_on else 0)
+        self.blocks = RandomBlocks(num_envs, width)
+        self.rngs: list[np.random.Generator | None] = [None] * num_envs
+
+        b, c = num_envs, self.control_dim
+        self.seen = np.zeros((b, self.n_slots), dtype=bool)
+        self.collided = np.zeros(b, dtype=bool)
+        self.kidnapped = np.zeros(b, dtype=bool)
+        self.control_true = np.zeros((b, c))
+        self.control = np.zeros((b, c))
+        self.det_z = np.zeros((b, d, 2))
+        self.det_ids = np.zeros((b, d), dtype=np.int64)
+        self.det_rows = np.zeros((b, d), dtype=np.int64)
+        self.det_count = np.zeros(b, dtype=np.int64)
+        self.scan = np.zeros((b, beams), dtype=np.float32)
+        self.out = RawOutputs(
+            np.zeros((b, c), dtype=np.float32),
+            np.zeros((b, 2 * d), dtype=np.float32),
+            np.full((b, d), -1.0, dtype=np.float32),
+            np.zeros((b, d), dtype=np.float32),
+            np.zeros((b, 1), dtype=np.float32),
+            np.zeros(b, dtype=bool),
+            np.zeros(b),
+            np.zeros(b),
+            np.zeros(b),
+        )
+        self.terminated = np.zeros(b, dtype=bool)
+        self._none = np.zeros(b, dtype=bool)
+        self._idle = [0.0] * b  # the speeds and turn rates of robots that do not move
+        # The kernels' grouped arguments as plain tuples (see slam_env.kernels).
+        self._sensor_fields = tuple(self._sensor)
+        self._fault_fields = tuple(self._faults)
+        self._params_fields = tuple(self._params)
+        self._out_fields = tuple(self.out)  # the active mask of one sub-env
+
+    # ------------------------------------------------------------------ stepping
+    def advance(
+        self,
+        speed: list[float],
+        turn: list[float],
+        stepping: np.ndarray,
+        resetting: Sequence[int],
+    ) -> list[Layout]:
+        """Step the sub-envs of ``stepping`` ((B,) bool; robot b driven at ``speed[b]``
+        m/s and ``turn[b]`` rad/s, lists of B Python floats) and start a new episode for
+        those listed in ``resetting`` (their generators already in :attr:`rngs`), in the
+        same kernel calls. A reset scan has no faults and pays nothing. Returns the new
+        episodes' layouts, in the order of ``resetting``."""
+        worlds = self.worlds
+        before = worlds.move(speed, turn, stepping.tolist(), self.collided)
+        touched = stepping.copy()
+        layouts = []
+        for b in resetting:
+            layouts.append(worlds.reset(b, self.rngs[b]))
+            self.blocks.restart(b, self.rngs[b])
+            self.seen[b] = False
+            self.collided[b] = False
+            self.kidnapped[b] = False
+            self.control[b] = 0.0
+            self.control_true[b] = 0.0
+            touched[b] = True
+        uniforms = self.blocks.take(self.rngs, touched)
+        read_odometry(
+            before,
+            worlds.poses,
+            self.velocity_model,
+            self._noise,
+            uniforms,
+            0,
+            stepping,
+            self.control_true,
+            self.control,
+        )
+        if self.faults_on:
+            corrupt_odometry(
+                self._faults.odometry_dropout,
+                self._bias,
+                uniforms,
+                self._fault_offset,
+                stepping,
+                self.control,
+            )
+            self._kidnap(uniforms, stepping)
+        self._sense(uniforms, touched, stepping)
+        self._observe(touched)
+        out = self.out
+        if self.config.terminate_when_all_detected:
+            np.logical_and(out.all_seen, stepping, out=self.terminated)
+        for b in resetting:
+            out.new_terms[b] = 0.0
+            out.collision_terms[b] = 0.0
+            out.rewards[b] = 0.0
+            self.terminated[b] = False
+        return layouts
+
+    def _kidnap(self, uniforms: np.ndarray, active: np.ndarray) -> None:
+        rate = self.config.faults.kidnap_rate
+        self.kidnapped[active] = False
+        if rate > 0.0:
+            events = active & (uniforms[:, self._fault_offset + KIDNAP_UNIFORM] < rate)
+            for b in np.flatnonzero(events).tolist():
+                self.kidnapped[b] = self.worlds.kidnap(b, self.rngs[b])
+
+    def _sense(self, uniforms: np.ndarray, active: np.ndarray, faulty: np.ndarray) -> None:
+        """The scans of ``active``; the faults, if any, on those of ``faulty``."""
+        worlds = self.worlds
+        sense_landmarks(
+            worlds.poses,
+            worlds.landmarks,
+            worlds.landmark_ids,
+            worlds.id_order,
+            tuple(worlds.geometry),
+            self._sensor_fields,
+            uniforms,
+            self._scan_offset,
+            active,
+            self.det_z,
+            self.det_ids,
+            self.det_rows,
+            self.det_count,
+        )
+        if self.faults_on:
+            corrupt_scans(
+                self._fault_fields,
+                self.seen,
+                uniforms,
+                self._fault_offset,
+                faulty,
+                self.det_z,
+                self.det_ids,
+                self.det_rows,
+                self.det_count,
+            )
+        if self._beam_angles.size:
+            reach = float(self.config.sensor.scan_range)
+            proximity_scan(
+                worlds.poses, tuple(worlds.geometry), self._beam_angles, reach, active, self.scan
+            )
+
+    def _observe(self, active: np.ndarray) -> None:
+        observe_raw(
+            self.control,
+            self.det_z,
+            self.det_ids,
+            self.det_count,
+            self.collided,
+            self.worlds.landmark_ids,
+            self._params_fields,
+            active,
+            self.seen,
+            self._out_fields,
+        )
+
+    @property
+    def rewards(self) -> np.ndarray:
+        """(B,) the rewards of the last step (0 for a reset)."""
+        return self.out.rewards
+
+    # ------------------------------------------------------------------ reading
+    def observation(self, index: int) -> dict[str, np.ndarray]:
+        """Sub-env ``index``'s observation, fresh arrays."""
+        out = self.out
+        obs = {
+            "odometry": out.odometry[index].copy(),
+            "detections": out.detections[index].copy(),
+            "ids": out.ids[index].copy(),
+            "mask": out.mask[index].copy(),
+        }
+        if self._beam_angles.size:
+            obs["scan"] = self.scan[index].copy()
+        if self.config.sensor.bumper:
+            obs["bumper"] = out.bumper[index].copy()
+        return obs
+
+    def observations(self) -> dict[str, np.ndarray]:
+        """Every sub-env's observation, stacked (B, …), fresh arrays."""
+        out = self.out
+        obs = {
+            "odometry": out.odometry.copy(),
+            "detections": out.detections.copy(),
+            "ids": out.ids.copy(),
+            "mask": out.mask.copy(),
+        }
+        if self._beam_angles.size:
+            obs["scan"] = self.scan.copy()
+        if self.config.sensor.bumper:
+            obs["bumper"] = out.bumper.copy()
+        return obs
+
+    def frame(self, index: int, trail: Any, belief: Any = None) -> Any:
+        """The plain-data :class:`slam_env.rendering.Frame` of sub-env ``index``, with its
+        past positions ``trail`` ((T, 2), m) and a belief overlay to draw, if any."""
+        from slam_env.geometry import robot_to_world
+        from slam_env.rendering import Frame
+
+        k = int(self.det_count[index])
+        pose = self.worlds.poses[index]
+        z = self.det_z[index, :k]
+        if self.config.sensor.measurement_model == "range_bearing":
+            local = np.stack([z[:, 0] * np.cos(z[:, 1]), z[:, 0] * np.sin(z[:, 1])], axis=-1)
+        else:
+            local = z
+        ids = self.worlds.landmark_ids[index]
+        return Frame(
+            pose=tuple(pose.tolist()),
+            trail=np.array(trail, dtype=np.float64).reshape(-1, 2),
+            detections_world=robot_to_world(pose, local),
+            detected_ids=self.det_ids[index, :k].copy(),
+            seen_mask=self.seen[index][ids].copy(),
+            collision=bool(self.collided[index]),
+            belief=belief,
+        )
+
+    def belief_overlay(self, index: int) -> None:
+        """Nothing to draw over the world: the raw stream has no belief."""
+        return None
+
+    def info(self, index: int) -> dict[str, Any]:
+        """Sub-env ``index``'s info (the ground truth), fresh objects."""
+        worlds = self.worlds
+        info = {
+            "pose": worlds.poses[index].copy(),
+            "landmark_positions": worlds.landmarks[index].copy(),
+            "landmark_ids": worlds.landmark_ids[index].copy(),
+            "collision": bool(self.collided[index]),
+            # Fixed size (one entry per landmark ID), so that vector envs stack it.
+            "seen": self.seen[index].copy(),
+            "odometry_true": self.control_true[index].copy(),
+            "reward_terms": {
+                "new_landmarks": float(self.out.new_terms[index]),
+                "collision": float(self.out.collision_terms[index]),
+            },
+        }
+        if self.faults_on:
+            info["kidnapped"] = bool(self.kidnapped[index])
+        return info
+
+    def infos(self) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+        """Every sub-env's info, stacked (B, …), fresh arrays, and the masks of the keys
+        that not every sub-env reports (none here: every key, every sub-env)."""
+        worlds = self.worlds
+        info = {
+            "pose": worlds.poses.copy(),
+            "landmark_positions": worlds.landmarks.copy(),
+            "landmark_ids": worlds.landmark_ids.copy(),
+            "collision": self.collided.copy(),
+            "seen": self.seen.copy(),
+            "odometry_true": self.control_true.copy(),
+            "reward_terms": {
+                "new_landmarks": self.out.new_terms.copy(),
+                "collision": self.out.collision_terms.copy(),
+            },
+        }
+        if self.faults_on:
+            info["kidnapped"] = self.kidnapped.copy()
+        return info, {}

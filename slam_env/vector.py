@@ -1,0 +1,318 @@
+"""Native Gymnasium vector envs: B sub-envs stepped together by one batched core.
+
+``gym.make_vec("slam_env/Landmarks-v0", num_envs=B, vectorization_mode="vector_entry_point")``
+(and the same for ``slam_env/ActiveSLAM-v0``) returns a :class:`SlamVectorEnv` whose
+sub-env i, reset with seed s, replays the single env reset with seed s + i exactly:
+the single envs are the same core with B = 1, and every sub-env draws from its own
+generator, seeded as the single env would be.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from typing import Any
+
+import numpy as np
+from gymnasium import logger, spaces
+from gymnasium.error import ResetNeeded
+from gymnasium.utils import seeding
+from gymnasium.vector import AutoresetMode, VectorEnv
+from gymnasium.vector.utils import batch_space
+
+from slam_env.actions import DISCRETE_PRIMITIVES, parse_actions
+from slam_env.active_core import ActiveCore
+from slam_env.active_options import ActiveSLAMOptions, active_config
+from slam_env.active_slam import _OWN_ARGUMENTS as ACTIVE_SLAM_ARGUMENTS
+from slam_env.budget import check_budget, world_size
+from slam_env.config import check_option_names, make_config
+from slam_env.ekf import EKFSLAM
+from slam_env.raw_core import RawCore
+from slam_env.registration import DEFAULT_MAX_EPISODE_STEPS
+
+AUTORESET_MODES = (AutoresetMode.NEXT_STEP, AutoresetMode.SAME_STEP)
+
+
+def with_masks(
+    info: dict[str, Any], reported: np.ndarray, masks: dict[str, np.ndarray] | None = None
+) -> dict[str, Any]:
+    """A vector info in Gymnasium's convention: next to every key its ``_key`` mask of
+    the sub-envs that reported it, ``reported`` ((B,) bool), and with it ``masks[key]``
+    for a key that not all of them report (a key none reports is left out); nested
+    dicts likewise."""
+    out: dict[str, Any] = {}
+    for key, value in info.items():
+        own = (masks or {}).get(key)
+        mask = reported.copy() if own is None else reported & own
+        if not mask.any():
+            continue  # as Gymnasium: a key no sub-env reported is not there
+        out[key] = with_masks(value, reported) if isinstance(value, dict) else value
+        out[f"_{key}"] = mask
+    return out
+
+
+def _select(info: dict[str, Any], rows: np.ndarray) -> dict[str, Any]:
+    """The vector info of the sub-envs ``rows`` (B,) bool: the same keys and shapes,
+    zeros (or None) elsewhere, as Gymnasium builds it sub-env by sub-env."""
+    out: dict[str, Any] = {}
+    for key, value in info.items():
+        if isinstance(value, dict):
+            out[key] = _select(value, rows)
+        else:
+            kept = np.zeros_like(value)
+            kept[rows] = value[rows]
+            out[key] = kept
+    return out
+
+
+class SlamVectorEnv(VectorEnv):
+    """B sub-envs of one slam_env ID with one config, stepped by one batched core.
+
+    Args:
+        num_envs: B.
+        core_factory: ``(config, num_envs, **env_options) -> core``, the batched core of
+            the ID (:class:`slam_env.raw_core.RawCore` for ``Landmarks-v0``).
+        max_episode_steps: truncation, as ``gym.make``'s ``TimeLimit`` does for the single
+            env (``None``: never).
+        autoreset_mode: ``AutoresetMode.NEXT_STEP`` (default: a sub-env that ended is
+            reset by the next ``step``, which returns its first observation with reward
+            0) or ``SAME_STEP`` (reset within the same ``step``; the last observation and
+            info are in ``info["final_obs"]`` and ``info["final_info"]``).
+        render_mode: ``None`` or ``"rgb_array"`` (``render()`` returns a frame per
+            sub-env).
+        options: every option of the single env (flat or nested), the same for all
+            sub-envs.
+    """
+
+    def __init__(
+        self,
+        num_envs: int,
+        core_factory: Callable[..., Any],
+        *,
+        max_episode_steps: int | None = DEFAULT_MAX_EPISODE_STEPS,
+        autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP,
+        render_mode: str | None = None,
+        **options: Any,
+    ) -> None:
+        if isinstance(num_envs, bool) or not isinstance(num_envs, (int, np.integer)):
+            raise TypeError(f"num_envs must be an int, got {type(num_envs).__name__}")
+        if num_envs < 1:
+            raise ValueError(f"num_envs must be >= 1, got {num_envs}")
+        if max_episode_steps is not None and (
+            isinstance(max_episode_steps, bool)
+            or not isinstance(max_episode_steps, (int, np.integer))
+            or max_episode_steps < 1
+        ):
+            raise ValueError(
+                f"max_episode_steps must be an int >= 1 or None, got {max_episode_steps!r}"
+            )
+        mode = AutoresetMode(autoreset_mode)
+        if mode not in AUTORESET_MODES:
+            raise ValueError(f"autoreset_mode must be one of {AUTORESET_MODES}, got {mode}")
+        if render_mode not in (None, "rgb_array"):
+            raise ValueError(f"render_mode must be None or 'rgb_array', got {render_mode!r}")
+        self.num_envs = int(num_envs)
+        self.core = core_factory(num_envs=self.num_envs, **options)
+        self.config = self.core.config
+        self.metadata = {
+            "render_modes": ["rgb_array"],
+            "render_fps": 10,
+            "autoreset_mode": mode,
+        }
+        self.render_mode = render_mode
+        self.max_episode_steps = None if max_episode_steps is None else int(max_episode_steps)
+        self.single_observation_space = self.core.observation_space
+        self.observation_space = batch_space(self.single_observation_space, self.num_envs)
+        if self.config.action_type == "continuous":
+            self.single_action_space = spaces.Box(-1.0, 1.0, shape=(2,), dtype=np.float32)
+        else:
+            self.single_action_space = spaces.Discrete(len(DISCRETE_PRIMITIVES))
+        self.action_space = batch_space(self.single_action_space, self.num_envs)
+        self._max_speed = self.config.robot.max_speed
+        self._max_turn_rate = self.config.robot.max_turn_rate
+        b = self.num_envs
+        self._elapsed = np.zeros(b, dtype=np.int64)
+        self._autoreset = np.zeros(b, dtype=bool)
+        self._started = False
+        self._all = np.ones(b, dtype=bool)
+        self._idle = [0.0] * b  # the speeds and turn rates of sub-envs that only reset
+        self._trails: list[list[tuple[float, float]]] = [[] for _ in range(b)]
+        self._renderers: list[Any] = [None] * b
+
+    # ------------------------------------------------------------------ API
+    def reset(
+        self,
+        *,
+        seed: int | Sequence[int | None] | None = None,
+        options: dict[str, Any] | None = None,
+    ) -> tuple[Any, dict[str, Any]]:
+        """Reset every sub-env. ``seed``: an int s seeds sub-env i with s + i; a list
+        gives each sub-env its own (``None`` entries continue that sub-env's
+        generator, or draw fresh entropy the first time)."""
+        if options:
+            raise ValueError(f"{type(self).__name__}.reset takes no options, got {options!r}")
+        rngs = self.core.rngs
+        for b, s in enumerate(self._seeds(seed)):
+            if s is not None or rngs[b] is None:
+                rngs[b], _ = seeding.np_random(s)
+        everyone = list(range(self.num_envs))
+        self.core.advance(self._idle, self._idle, ~self._all, everyone)
+        self._finish_resets(everyone)
+        self._autoreset[:] = False
+        self._started = True
+        return self.core.observations(), with_masks(*self._infos())
+
+    def _infos(self) -> tuple[dict[str, Any], np.ndarray, dict[str, np.ndarray]]:
+        info, masks = self.core.infos()
+        return info, self._all, masks
+
+    def _seeds(self, seed: int | Sequence[int | None] | None) -> list[int | None]:
+        b = self.num_envs
+        if seed is None:
+            return [None] * b
+        if isinstance(seed, (int, np.integer)) and not isinstance(seed, bool):
+            return [int(seed) + i for i in range(b)]
+        if isinstance(seed, Sequence) and not isinstance(seed, str):
+            if len(seed) != b:
+                raise ValueError(f"seed must list {b} seeds (one per sub-env), got {len(seed)}")
+            return list(seed)
+        raise TypeError(f"seed must be an int, a list of {b} ints or None, got {seed!r}")
+
+    def _finish_resets(self, indices: list[int]) -> None:
+        """After the sub-envs of ``indices`` reset: their step counts and pictures."""
+        for b in indices:
+            self._elapsed[b] = 0
+            if self.render_mode is not None:
+                pose = self.core.worlds.poses[b]
+                self._trails[b] = [(float(pose[0]), float(pose[1]))]
+                if self._renderers[b] is not None:
+                    self._renderers[b].set_layout(self.core.worlds.worlds[b].layout)
+
+    def step(self, actions: Any) -> tuple[Any, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
+        if not self._started:
+            raise ResetNeeded("call reset() before step()")
+        core = self.core
+        resetting = self._autoreset
+        active = ~resetting
+        speed, turn = parse_actions(actions, self.single_action_space, self.num_envs, active)
+        max_speed, max_turn = self._max_speed, self._max_turn_rate
+        speed = [s * max_speed for s in speed]
+        turn = [t * max_turn for t in turn]
+        next_step = self.metadata["autoreset_mode"] == AutoresetMode.NEXT_STEP
+        # NEXT_STEP: the sub-envs that ended last step start anew in this step's calls.
+        starting = np.flatnonzero(resetting).tolist() if next_step else []
+        core.advance(speed, turn, active, starting)
+        self._elapsed += active
+        terminated = core.terminated & active
+        truncated = np.zeros(self.num_envs, dtype=bool)
+        if self.max_episode_steps is not None:
+            truncated = (self._elapsed >= self.max_episode_steps) & active
+        rewards = np.where(active, core.rewards, 0.0)
+        if self.render_mode is not None:
+            for b in np.flatnonzero(active).tolist():
+                pose = core.worlds.poses[b]
+                self._trails[b].append((float(pose[0]), float(pose[1])))
+        done = terminated | truncated
+        final: dict[str, Any] | None = None
+        if next_step:
+            self._finish_resets(starting)
+            self._autoreset = done
+        elif done.any():  # SAME_STEP: the ended sub-envs start anew now
+            final = self._final(done)
+            ended = np.flatnonzero(done).tolist()
+            core.advance(self._idle, self._idle, ~self._all, ended)
+            self._finish_resets(ended)
+        infos = with_masks(*self._infos())
+        if final is not None:
+            infos.update(final)
+        return core.observations(), rewards, terminated, truncated, infos
+
+    def _final(self, done: np.ndarray) -> dict[str, Any]:
+        """``final_obs`` and ``final_info`` of the sub-envs that ended, as Gymnasium's
+        SAME_STEP vector envs report them."""
+        final_obs = np.full(self.num_envs, None, dtype=object)
+        for b in np.flatnonzero(done).tolist():
+            final_obs[b] = self.core.observation(b)
+        info, masks = self.core.infos()
+        final_info = with_masks(_select(info, done), done, masks)
+        return {
+            "final_obs": final_obs,
+            "_final_obs": done.copy(),
+            "final_info": final_info,
+            "_final_info": done.copy(),
+        }
+
+    def render(self) -> tuple[np.ndarray, ...] | None:
+        """A frame per sub-env, (H, W, 3) uint8 each."""
+        if self.render_mode is None:
+            logger.warn(
+                "render() called without a render_mode; pass render_mode='rgb_array' to "
+                "gym.make_vec"
+            )
+            return None
+        if not self._started:
+            raise ResetNeeded("call reset() before render()")
+        return tuple(self._render_one(b) for b in range(self.num_envs))
+
+    def _render_one(self, index: int) -> np.ndarray:
+        from slam_env.rendering import Renderer
+
+        if self._renderers[index] is None:
+            cfg = self.config
+            self._renderers[index] = Renderer(
+                self.core.worlds.worlds[index].layout,
+                robot_radius=cfg.robot.radius,
+                max_range=cfg.sensor.max_range,
+                fov=cfg.sensor.fov,
+                render_mode="rgb_array",
+                render_fps=self.metadata["render_fps"],
+            )
+        frame = self.core.frame(index, self._trails[index], self.core.belief_overlay(index))
+        return self._renderers[index].render(frame)
+
+    def close_extras(self, **kwargs: Any) -> None:
+        for renderer in self._renderers:
+            if renderer is not None:
+                renderer.close()
+        self._renderers = [None] * self.num_envs
+
+    # Pickling: renderers (pygame surfaces) stay behind and are rebuilt on demand.
+    def __getstate__(self) -> dict[str, Any]:
+        state = self.__dict__.copy()
+        state["_renderers"] = [None] * self.num_envs
+        return state
+
+
+def _raw_core(num_envs: int, config: Any = None, **options: Any) -> RawCore:
+    check_option_names(options, ("config",))
+    config = make_config(config, **options)
+    # Everything that scales work or memory, for all the sub-envs, before it is built.
+    check_budget(config, world_size(config), num_envs=num_envs)
+    return RawCore(config, num_envs)
+
+
+class LandmarksVectorEnv(SlamVectorEnv):
+    """The native vector env of ``slam_env/Landmarks-v0`` (see :class:`SlamVectorEnv`;
+    the sub-envs are :class:`slam_env.env.LandmarksEnv`)."""
+
+    def __init__(self, num_envs: int, **kwargs: Any) -> None:
+        super().__init__(num_envs, _raw_core, **kwargs)
+
+
+def _active_core(num_envs: int, **options: Any) -> ActiveCore:
+    own = {k: options.pop(k) for k in ActiveSLAMOptions.argument_names() if k in options}
+    active = ActiveSLAMOptions(**own)
+    check_option_names(options, ("config", *ACTIVE_SLAM_ARGUMENTS))
+    return ActiveCore(active_config(active, options, num_envs), num_envs, active)
+
+
+class ActiveSLAMVectorEnv(SlamVectorEnv):
+    """The native vector env of ``slam_env/ActiveSLAM-v0`` (see :class:`SlamVectorEnv`;
+    the sub-envs are :class:`slam_env.active_slam.ActiveSLAMEnv`, with the same
+    options)."""
+
+    def __init__(self, num_envs: int, **kwargs: Any) -> None:
+        super().__init__(num_envs, _active_core, **kwargs)
+
+    def filter(self, index: int) -> EKFSLAM:
+        """Sub-env ``index``'s EKF-SLAM filter (its state is the vector env's)."""
+        return self.core.filter(index)

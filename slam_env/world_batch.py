@@ -1,0 +1,93 @@
+"""B pymunk worlds of one config and the arrays the kernels read of them."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from slam_env.config import EnvConfig
+from slam_env.faults import kidnap_pose
+from slam_env.kernels.geometry import StaticGeometry, empty_geometry, set_world
+from slam_env.layouts import Layout, layout_for
+from slam_env.world import World
+
+
+class WorldBatch:
+    """The worlds of B sub-envs: a :class:`~slam_env.world.World` each (pymunk moves
+    the robots and resolves their contacts) and, for the kernels, the true poses
+    (B, 3), the landmarks (B, N, 2) with their IDs (B, N) and ID order (B, N), and the
+    static geometry.
+
+    A fixed world (a preset or a user layout) is built once and shared by every
+    sub-env; with ``preset="random"`` each reset draws a new world from the sub-env's
+    generator.
+    """
+
+    def __init__(self, config: EnvConfig, num_envs: int) -> None:
+        self.config = config
+        self.num_envs = num_envs
+        self.fixed_layout: Layout | None = None
+        if config.layout is not None or config.world.preset != "random":
+            self.fixed_layout = layout_for(config, rng=None)
+            ids = self.fixed_layout.landmark_ids
+            if not ids:
+                raise ValueError("the world has no landmarks: slam_env needs at least one")
+            self.n_landmarks = len(ids)
+            self.n_slots = max(ids) + 1
+            self.arena_size = (self.fixed_layout.width, self.fixed_layout.height)
+        else:
+            self.n_landmarks = config.world.n_landmarks
+            self.n_slots = config.world.n_landmarks
+            self.arena_size = (config.world.width, config.world.height)
+        n = self.n_landmarks
+        self.worlds: list[World | None] = [None] * num_envs
+        self.poses = np.zeros((num_envs, 3))
+        self.landmarks = np.zeros((num_envs, n, 2))
+        self.landmark_ids = np.zeros((num_envs, n), dtype=np.int64)
+        self.id_order = np.tile(np.arange(n, dtype=np.int64), (num_envs, 1))
+        self.geometry: StaticGeometry = empty_geometry(num_envs)
+
+    def reset(self, index: int, rng: np.random.Generator) -> Layout:
+        """A new episode's world for sub-env ``index`` (drawn from ``rng`` when random)."""
+        cfg = self.config
+        layout = self.fixed_layout or layout_for(cfg, rng=rng)
+        # layout_for validated the layout for this robot and wall thickness.
+        world = World(
+            layout,
+            cfg.robot,
+            cfg.dt,
+            cfg.physics_substeps,
+            cfg.world.wall_thickness,
+            validated=True,
+        )
+        self.worlds[index] = world
+        self.poses[index] = world.pose
+        self.landmarks[index] = world.landmark_positions
+        ids = world.landmark_ids
+        self.landmark_ids[index] = ids
+        self.id_order[index] = np.argsort(ids, kind="stable")
+        self.geometry = set_world(self.geometry, index, layout, cfg.world.wall_thickness)
+        return layout
+
+    def move(
+        self, speed: list[float], turn: list[float], active: list[bool], collided: np.ndarray
+    ) -> np.ndarray:
+        """Drive each active robot at ``speed`` m/s and ``turn`` rad/s for one step,
+        its collision flag into ``collided`` (B,). Returns the poses before the step."""
+        before = self.poses.copy()
+        poses = self.poses
+        for b, world in enumerate(self.worlds):
+            if active[b]:
+                collided[b] = world.step(speed[b], turn[b])
+                poses[b] = world.pose
+        return before
+
+    def kidnap(self, index: int, rng: np.random.Generator) -> bool:
+        """Carry robot ``index`` to a random free pose drawn from ``rng``; False when
+        no free pose was found."""
+        world = self.worlds[index]
+        pose = kidnap_pose(world, rng)
+        if pose is None:
+            return False
+        world.set_pose(*pose)
+        self.poses[index] = world.pose
+        return True
