@@ -5,8 +5,9 @@ checked when an env is built, before anything is allocated or stepped.
 from it (:func:`world_size`: landmark slots, detections, the arena; and the options of
 ``ActiveSLAM-v0`` that scale memory) and raises ``ValueError`` naming the options, the
 derived figure and the limit, with the reason and what to change. It returns the
-:class:`Usage` figures; :func:`memory_bytes` is the memory figure of one env, which a
-vector env multiplies by its number of sub-envs (``num_envs``). The README's
+:class:`Usage` figures; :func:`memory_bytes` is the memory figure of one env; a vector
+env of ``num_envs`` sub-envs counts the parts it shares (:data:`SHARED_PARTS`, the
+coverage grid's tables) once and the others once per sub-env. The README's
 "Resource budget" lists the limits with their reasons.
 """
 
@@ -97,7 +98,7 @@ class Usage:
 
     moves_per_step: int
     arena_cells: int
-    memory_bytes: int  # per env: multiply by the number of sub-envs
+    memory_bytes: int  # over all the sub-envs checked
 
 
 def world_size(config: EnvConfig) -> WorldSize:
@@ -160,7 +161,8 @@ def memory_parts(
 ) -> dict[str, int]:
     """The bytes one env allocates for what its options scale, by part: ``detections``
     (the raw env's mask table), ``landmarks``, ``belief`` (``"egocentric"`` or
-    ``"full"``; ``None`` for the raw env) and ``coverage``."""
+    ``"full"``; ``None`` for the raw env), and ``coverage_tables`` and ``coverage`` (the
+    coverage grid's tables, shared by a vector env's sub-envs, and its cells)."""
     rows = world.max_detections
     parts = {
         "detections": 4 * (rows + 1) * rows,
@@ -174,12 +176,15 @@ def memory_parts(
         parts["belief"] = BELIEF_DENSE_COPIES[belief] * 8 * dim * dim
     if coverage:
         offsets, footprint, padded = _coverage_geometry(config, world)
-        parts["coverage"] = (
-            COVERAGE_BYTES_PER_OFFSET * offsets
-            + COVERAGE_BYTES_PER_FOOTPRINT_OFFSET * footprint
-            + padded
+        parts["coverage_tables"] = (
+            COVERAGE_BYTES_PER_OFFSET * offsets + COVERAGE_BYTES_PER_FOOTPRINT_OFFSET * footprint
         )
+        parts["coverage"] = padded
     return parts
+
+
+# The parts a vector env builds once for all its sub-envs: the coverage grid's tables.
+SHARED_PARTS = ("coverage_tables",)
 
 
 def memory_bytes(
@@ -265,8 +270,8 @@ def check_budget(
     _check_observation_bounds(config, world, belief)
     if belief is not None:
         _check_belief_work(config, world, belief)
-    per_env = _check_memory(config, world, belief, coverage, num_envs)
-    return Usage(moves, cells, per_env)
+    memory = _check_memory(config, world, belief, coverage, num_envs)
+    return Usage(moves, cells, memory)
 
 
 def _check_work(config: EnvConfig) -> int:
@@ -416,23 +421,25 @@ def _check_observation_bounds(config: EnvConfig, world: WorldSize, belief: str |
 def _check_memory(
     config: EnvConfig, world: WorldSize, belief: str | None, coverage: bool, num_envs: int
 ) -> int:
-    """What the options allocate, over the sub-envs. Returns the per-env figure."""
+    """What the options allocate over the sub-envs: the shared parts once, the others
+    once per sub-env. Returns that figure."""
     parts = memory_parts(config, world, belief=belief, coverage=coverage)
-    per_env = sum(parts.values())
-    if per_env * num_envs > MAX_MEMORY_BYTES:
+    total_parts = {k: v if k in SHARED_PARTS else v * num_envs for k, v in parts.items()}
+    total = sum(total_parts.values())
+    if total > MAX_MEMORY_BYTES:
         biggest = ", ".join(
             f"{name} {size / 2**20:.4g} MiB ({_MEMORY_OPTIONS[name]})"
-            for name, size in sorted(parts.items(), key=lambda item: -item[1])
-            if size >= 0.1 * per_env
+            for name, size in sorted(total_parts.items(), key=lambda item: -item[1])
+            if size >= 0.1 * total
         )
         _refuse(
             f"memory of {num_envs} env(s), MiB",
-            per_env * num_envs / 2**20,
+            total / 2**20,
             MAX_MEMORY_BYTES / 2**20,
-            f"what the options allocate, per env mostly {biggest}",
+            f"what the options allocate, mostly {biggest}",
             "lower them",
         )
-    return per_env
+    return total
 
 
 # The options that scale each part of the memory figure, for its error message.
@@ -441,4 +448,5 @@ _MEMORY_OPTIONS = {
     "landmarks": "n_landmarks, or a layout's landmarks and IDs",
     "belief": "(3 + 2·landmark slots)² for each observation",
     "coverage": "width, height and max_range, or coverage=False",
+    "coverage_tables": "width, height and max_range, or coverage=False",
 }

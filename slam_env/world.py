@@ -26,6 +26,7 @@ is read, so a pickled world resumes bit-identically.
 
 from __future__ import annotations
 
+import functools
 import math
 from typing import Any
 
@@ -34,7 +35,7 @@ import pymunk
 
 from slam_env.config import RobotConfig
 from slam_env.kernels import raycast
-from slam_env.kernels.geometry import empty_geometry, set_world, static_shapes
+from slam_env.kernels.geometry import StaticGeometry, empty_geometry, set_world, static_shapes
 from slam_env.layouts import LANDMARK_POST_RADIUS, Layout
 
 __all__ = ["LANDMARK_POST_RADIUS", "World"]
@@ -119,8 +120,6 @@ class World:
         self._landmark_ids = ids
         self._landmark_points = tuple((x, y) for x, y in positions.tolist())
         self._build_space()
-        # The same shapes as arrays, for the compiled segment queries: a batch of one.
-        self._geometry = set_world(empty_geometry(1), 0, layout, self.wall_thickness)
         # (cx, cy, d): nothing the robot can hit lies closer than d to (cx, cy).
         self._clear_disk = (0.0, 0.0, -math.inf)
         x, y, theta = layout.start_pose
@@ -323,6 +322,12 @@ class World:
         return lo
 
     # ----------------------------------------------------------------- line of sight
+
+    @functools.cached_property
+    def _geometry(self) -> StaticGeometry:
+        """The static shapes as arrays, for the compiled segment queries: a batch of
+        one, built at the first query (the batched cores keep their own)."""
+        return set_world(empty_geometry(1), 0, self.layout, self.wall_thickness)
 
     def line_of_sight(self, origin: Any, target: Any, landmark_index: int) -> bool:
         """True when the segment origin → target (each (2,), m) is not blocked by a wall,

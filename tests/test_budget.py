@@ -178,13 +178,20 @@ def test_a_huge_arena_without_a_grid_over_it_still_works():
 
 
 def test_the_memory_figure_scales_with_the_sub_envs():
+    """A vector env counts the coverage grid's tables once (its sub-envs share them) and
+    everything else once per sub-env."""
     cfg = make_config(n_landmarks=200, width=40.0, height=40.0)
     world = world_size(cfg)
-    per_env = memory_bytes(cfg, world, belief="full", coverage=True)
+    one = memory_bytes(cfg, world, belief="full", coverage=True)
+    parts = budget.memory_parts(cfg, world, belief="full", coverage=True)
+    shared = parts["coverage_tables"]
+    assert budget.SHARED_PARTS == ("coverage_tables",) and shared > 0
+    per_env = one - shared
     usage = check_budget(cfg, world, belief="full", coverage=True)
-    assert usage.memory_bytes == per_env > 0
-    fits = budget.MAX_MEMORY_BYTES // per_env
-    check_budget(cfg, world, belief="full", coverage=True, num_envs=fits)
+    assert usage.memory_bytes == one > 0
+    fits = (budget.MAX_MEMORY_BYTES - shared) // per_env
+    usage = check_budget(cfg, world, belief="full", coverage=True, num_envs=fits)
+    assert usage.memory_bytes == shared + fits * per_env
     with pytest.raises(ValueError, match=f"memory of {fits + 1} env"):
         check_budget(cfg, world, belief="full", coverage=True, num_envs=fits + 1)
     # The belief's part is (3 + 2·slots)², the raw env's is small.
