@@ -28,6 +28,8 @@ from slam_env.wrappers import (
 
 # Proximity beams in the active-SLAM observation, unless the options set them.
 DEFAULT_SCAN_BEAMS = 16
+# The belief's figures (``info`` keys) shown live beside the rendered map.
+LIVE_FIGURES = ("entropy", "map_rmse", "pose_nees")
 
 
 class ActiveSLAMEnv(gym.Env):
@@ -99,6 +101,10 @@ class ActiveSLAMEnv(gym.Env):
             belief = CoverageWrapper(belief)
         self._stack = ActiveSLAMReward(belief, reward_weights)
         self.render_mode = render_mode
+        # What render() draws beyond the belief: the estimated path and live figures,
+        # kept only when rendering.
+        self._estimated_trail: list[tuple[float, float]] = []
+        self._figures: dict[str, float] = {}
         self.observation_space = self._stack.observation_space
         self.action_space = self._stack.action_space
 
@@ -118,13 +124,32 @@ class ActiveSLAMEnv(gym.Env):
         obs, info = self._stack.reset(seed=seed, options=options)
         # One random stream for the whole stack: the raw env's.
         self._np_random = self.raw_env.np_random
+        self._estimated_trail = []
+        self._remember(info)
         return obs, info
 
     def step(self, action: Any) -> tuple[Any, SupportsFloat, bool, bool, dict[str, Any]]:
-        return self._stack.step(action)
+        out = self._stack.step(action)
+        self._remember(out[4])
+        return out
+
+    def _remember(self, info: dict[str, Any]) -> None:
+        """Keep the estimated position and the live figures for the picture."""
+        if self.render_mode is None:
+            return
+        x, y = self.filter.pose[:2].tolist()
+        self._estimated_trail.append((x, y))
+        self._figures = {name: info[name] for name in LIVE_FIGURES}
 
     def render(self) -> Any:
-        return self._stack.render()
+        raw = self.raw_env
+        if self.render_mode is None or not raw._started:
+            return self._stack.render()  # warns or raises as the raw env does
+        overlay = self.belief_wrapper.belief_overlay()
+        overlay.trail = np.array(self._estimated_trail, dtype=np.float64).reshape(-1, 2)
+        overlay.figures = dict(self._figures)
+        raw.belief_overlay = overlay
+        return raw.render()
 
     def close(self) -> None:
         self._stack.close()

@@ -133,6 +133,7 @@ class LandmarksEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         self._renderer = None
         self._closed = False
         self._trail: list[tuple[float, float]] = []
+        self._steps = 0  # since the reset, for the picture
         # Drawn over the world by render(); the EKF-SLAM wrapper sets it.
         self.belief_overlay = None
 
@@ -151,6 +152,7 @@ class LandmarksEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         self.belief_overlay = None
         pose = core.worlds.poses[0]
         self._trail = [(float(pose[0]), float(pose[1]))]
+        self._steps = 0
         if self._renderer is not None:
             self._renderer.set_layout(layout)
         obs, info = core.observation(0), core.info(0)
@@ -169,6 +171,7 @@ class LandmarksEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         core = self._core
         core.rngs[0] = self.np_random  # whoever set env.np_random since the reset
         core.step([speed_frac * self._max_speed], [turn_frac * self._max_turn_rate], self._active)
+        self._steps += 1
         if self.render_mode is not None:
             pose = core.worlds.poses[0]
             self._trail.append((float(pose[0]), float(pose[1])))
@@ -209,8 +212,15 @@ class LandmarksEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
         return self.world.layout
 
     def render_frame(self):
-        """The plain-data :class:`slam_env.rendering.Frame` of the current state."""
-        return self._core.frame(0, self._trail, self.belief_overlay)
+        """The plain-data :class:`slam_env.rendering.Frame` of the current state, with
+        the sensor's visible region traced in the world."""
+        from slam_env.visibility import visible_region
+
+        frame = self._core.frame(0, self._trail, self.belief_overlay)
+        sensor = self.config.sensor
+        frame.visible_region = visible_region(self.world, frame.pose, sensor.max_range, sensor.fov)
+        frame.step = self._steps
+        return frame
 
     def _get_renderer(self):
         if self._renderer is None:
