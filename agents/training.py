@@ -11,6 +11,11 @@ seeded env, and writes into ``config.out_dir``::
     eval/best_model.zip, eval/evaluations.npz
     tb/<model_name>_1/          TensorBoard logs (``tensorboard --logdir OUT/tb``)
 
+Besides SB3's own scalars, TensorBoard gets the SLAM metrics of the training episodes
+under ``slam/`` and of the evaluation episodes under ``slam_eval/``
+(:mod:`agents.slam_callbacks`); the best model is the evaluation's best by
+:data:`agents.slam_metrics.BEST_MODEL_CRITERION`.
+
 The config comes from a YAML file (``agents/configs/ppo_default.yaml`` holds every
 key with its default); unknown keys and wrong types are errors, never ignored.
 """
@@ -21,7 +26,6 @@ import dataclasses
 import json
 import math
 import time
-import warnings
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -31,6 +35,7 @@ import gymnasium as gym
 import yaml
 
 from agents.registry import make_env
+from agents.slam_metrics import BEST_MODEL_CRITERION
 
 DEFAULT_CONFIG_PATH = Path(__file__).resolve().parent / "configs" / "ppo_default.yaml"
 START_METHODS = (None, "fork", "forkserver", "spawn")
@@ -257,24 +262,11 @@ def _check_env(cfg: TrainConfig) -> None:
 
 
 def _make_callbacks(cfg: TrainConfig, out: Path, eval_env: Any) -> list[Any]:
-    from stable_baselines3.common.callbacks import CheckpointCallback, EvalCallback
+    from stable_baselines3.common.callbacks import CheckpointCallback
 
-    class SeededEvalCallback(EvalCallback):
-        """Evaluates on the same ``eval_seed`` worlds every time, so that successive
-        evaluations (and the best model) compare like with like."""
+    from agents.slam_callbacks import SlamEvalCallback, SlamMetricsCallback
 
-        def _init_callback(self) -> None:
-            with warnings.catch_warnings():
-                # Subproc training env vs in-process eval env is intended.
-                warnings.filterwarnings("ignore", message="Training and eval env are not")
-                super()._init_callback()
-
-        def _on_step(self) -> bool:
-            if self.eval_freq > 0 and self.n_calls % self.eval_freq == 0:
-                self.eval_env.seed(cfg.eval_seed)
-            return super()._on_step()
-
-    callbacks: list[Any] = []
+    callbacks: list[Any] = [SlamMetricsCallback()]
     if cfg.checkpoint_freq > 0:
         callbacks.append(
             CheckpointCallback(
@@ -285,8 +277,9 @@ def _make_callbacks(cfg: TrainConfig, out: Path, eval_env: Any) -> list[Any]:
         )
     if cfg.eval_freq > 0:
         callbacks.append(
-            SeededEvalCallback(
+            SlamEvalCallback(
                 eval_env,
+                eval_seed=cfg.eval_seed,
                 n_eval_episodes=cfg.eval_episodes,
                 eval_freq=max(cfg.eval_freq // cfg.n_envs, 1),
                 log_path=str(out / "eval"),
@@ -390,7 +383,7 @@ def train(config: TrainConfig | Mapping[str, Any] | str | Path | None = None) ->
             interrupted = True  # keep what was learnt so far
         wall = time.perf_counter() - start
         save_policy_file(model, model_path)
-        evals = [c for c in callbacks if hasattr(c, "best_mean_reward")]
+        evals = [c for c in callbacks if hasattr(c, "best_slam")]
         summary = {
             "model": str(model_path),
             "timesteps": int(model.num_timesteps),
@@ -400,6 +393,9 @@ def train(config: TrainConfig | Mapping[str, Any] | str | Path | None = None) ->
             "interrupted": interrupted,
             "last_eval_mean_reward": _finite(evals[0].last_mean_reward) if evals else None,
             "best_eval_mean_reward": _finite(evals[0].best_mean_reward) if evals else None,
+            "last_eval_slam": _finite_map(evals[0].last_slam) if evals else None,
+            "best_eval_slam": _finite_map(evals[0].best_slam) if evals else None,
+            "best_model_criterion": BEST_MODEL_CRITERION,
         }
         (out / "training_summary.json").write_text(json.dumps(summary, indent=2) + "\n")
         if interrupted:
@@ -423,3 +419,7 @@ def _close(vec_env: Any, quietly: bool) -> None:
 
 def _finite(x: float) -> float | None:
     return float(x) if math.isfinite(x) else None
+
+
+def _finite_map(figures: Mapping[str, float] | None) -> dict[str, float | None] | None:
+    return None if figures is None else {k: _finite(v) for k, v in figures.items()}

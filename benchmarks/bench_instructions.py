@@ -53,19 +53,24 @@ for action in actions:
 """
 
 
-def count(env_id: str, options: dict, steps: int, warmup: int) -> int:
-    """Instructions of a child process that makes the env and takes warmup + steps."""
-    code = _CHILD.format(env_id=env_id, options=options, steps=steps, warmup=warmup)
+def instructions(code: str, cwd: str | None = None) -> int:
+    """Instructions of a child Python process that runs ``code`` (in ``cwd``)."""
     result = subprocess.run(
         [*CALLGRIND, sys.executable, "-c", code],
         capture_output=True,
         text=True,
         check=True,
+        cwd=cwd,
     )
     found = re.search(r"Collected : (\d+)", result.stderr)
     if found is None:
         raise RuntimeError(f"no instruction count in valgrind's output:\n{result.stderr}")
     return int(found.group(1))
+
+
+def count(env_id: str, options: dict, steps: int, warmup: int) -> int:
+    """Instructions of a child process that makes the env and takes warmup + steps."""
+    return instructions(_CHILD.format(env_id=env_id, options=options, steps=steps, warmup=warmup))
 
 
 def main(argv: list[str] | None = None) -> None:
