@@ -54,14 +54,14 @@ def vector_columns(
     ``_key`` masks saying which of the going sub-envs reported each key. None for
     other infos."""
     going = [i for i in range(len(infos)) if i not in finished] if finished else range(len(infos))
-    first = infos[going[0]] if going else None
-    if not isinstance(first, InfoRow):
+    if not going:
+        return None
+    first = infos[going[0]]
+    if type(first) is not InfoRow:
         return None
     vector = first.vector_info
-    # Every going row must read this vector info (a wrapper may replace rows).
+    # Every going row must read this vector info (a wrapper may replace any row).
     if not all(type(infos[i]) is InfoRow and infos[i].vector_info is vector for i in going):
-        return None
-    if not all(key in vector for key in keys):
         return None
     if not finished:
         return [vector[key] for key in keys], [vector[f"_{key}"] for key in keys]
@@ -91,7 +91,7 @@ class SlamMetricsCallback(BaseCallback):
     def _on_step(self) -> bool:
         infos = self.locals["infos"]
         dones = self.locals["dones"].tolist()  # one numpy call: cheaper than .any()
-        finished = [i for i, done in enumerate(dones) if done]
+        finished = [i for i, done in enumerate(dones) if done] if True in dones else []
         read = vector_columns(infos, finished, STEP_KEYS)
         if read is None:
             self._tallies.add_infos(infos)

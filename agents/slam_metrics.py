@@ -111,14 +111,14 @@ class EpisodeTallies:
         """Fold the kept steps, (T, B) per key, into the figures."""
         if not self._kept:
             return
-        if self._columns:
-            collision, nees, known = (np.stack(c) for c in zip(*self._columns, strict=True))
-            self._columns.clear()
-        else:
-            b = self.num_envs
-            collision, nees, known = (np.array(v).reshape(-1, b) for v in self._values)
-            for values in self._values:
-                values.clear()
+        b = self.num_envs
+        if self._columns:  # T steps of (B,) arrays
+            kept = zip(*self._columns, strict=True)
+            self._columns = []
+        else:  # T·B values, row by row
+            kept = self._values
+            self._values = ([], [], [])
+        collision, nees, known = (np.array(values).reshape(-1, b) for values in kept)
         self._kept = 0
         before = self.steps.copy()
         self.steps += collision.shape[0]
