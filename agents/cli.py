@@ -5,21 +5,77 @@
                       [--out DIR] [--max-steps N] [--env-option KEY=VALUE ...]
     slam-env demo     [--agent SPEC] [--seed S] [--out DIR] [--no-gif] [--max-steps N]
 
-Bad arguments exit with status 2 and a message naming the problem.
+    slam-env --version
+
+Every user error (bad arguments, options, files, an unwritable ``--out``) prints one
+line naming the problem and exits with status 2, before anything runs.
+``--env-option`` values are YAML scalars read as YAML 1.2 reads them: ``2e-1`` and
+``1e-3`` are numbers, ``true`` a bool, ``[1, 2]`` a list.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import re
 import sys
+import tempfile
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
+from typing import Any, NoReturn
 
 import yaml
 
+import slam_env
+
 PROG = "slam-env"
+
+
+class _Parser(argparse.ArgumentParser):
+    """An argument parser whose usage errors are one line (status 2)."""
+
+    def error(self, message: str) -> NoReturn:
+        self.exit(2, f"{self.prog}: error: {message}\n")
+
+
+class _Yaml12Loader(yaml.SafeLoader):
+    """PyYAML's safe loader, which follows YAML 1.1 and reads ``2e-1`` as a string,
+    with YAML 1.2's floats: a mantissa without a dot and an exponent is a number."""
+
+
+_Yaml12Loader.add_implicit_resolver(
+    "tag:yaml.org,2002:float",
+    re.compile(r"^[-+]?(?:\.[0-9]+|[0-9]+(?:\.[0-9]*)?)(?:[eE][-+]?[0-9]+)?$"),
+    list("-+.0123456789"),
+)
+
+
+def yaml_scalar(text: str) -> Any:
+    """A value written in YAML (1.2 numbers): ``2e-1`` → 0.2, ``true`` → True,
+    ``[1, 2]`` → [1, 2]; an empty text is None."""
+    return yaml.load(text, Loader=_Yaml12Loader) if text.strip() else None  # a SafeLoader
+
+
+def check_writable_dir(path: str | Path, what: str = "--out") -> None:
+    """``ValueError`` unless ``path`` is, or can be created as, a directory one can
+    write into: checked by writing (and removing) a file in it or in its nearest
+    existing parent, so that nothing runs before a run that could not save."""
+    target = Path(path)
+    probe = target
+    while not probe.exists():
+        if probe.parent == probe:
+            break
+        probe = probe.parent
+    if not probe.is_dir():
+        raise ValueError(f"{what} {str(target)!r}: {str(probe)!r} is not a directory")
+    try:
+        with tempfile.TemporaryFile(dir=probe):
+            pass
+    except OSError as exc:
+        raise ValueError(
+            f"{what} {str(target)!r} is not writable: cannot write in {str(probe)!r}: "
+            f"{exc.strerror or exc}"
+        ) from None
 
 
 def _int_at_least(minimum: int):
@@ -47,7 +103,7 @@ def _env_option(text: str) -> tuple[str, Any]:
     if not sep or not key:
         raise argparse.ArgumentTypeError(f"expected KEY=VALUE (e.g. n_landmarks=10), got {text!r}")
     try:
-        value = yaml.safe_load(raw) if raw.strip() else None
+        value = yaml_scalar(raw)
     except yaml.YAMLError as exc:
         raise argparse.ArgumentTypeError(f"cannot parse the value of {key!r}: {exc}") from None
     return key, value
@@ -58,11 +114,12 @@ def _options(pairs: Sequence[tuple[str, Any]] | None) -> dict[str, Any] | None:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog=PROG,
         description="Active SLAM agents on slam_env/ActiveSLAM-v0: train PPO, compare "
         "agents, run the demo.",
     )
+    parser.add_argument("--version", action="version", version=f"{PROG} {slam_env.__version__}")
     sub = parser.add_subparsers(dest="command", metavar="{train,evaluate,demo}")
     sub.required = True
     env_help = "an env option KEY=VALUE (YAML value), e.g. n_landmarks=10; repeatable"
@@ -120,6 +177,7 @@ def _run_train(args: argparse.Namespace) -> int:
         out_dir=args.out,
         progress_bar=False if args.no_progress else None,
     )
+    check_writable_dir(cfg.out_dir, "--out" if args.out else "the config's out_dir")
     path = train(cfg)
     console = Console()
     console.print(f"model: {escape(str(path))}")
@@ -136,6 +194,7 @@ def _run_train(args: argparse.Namespace) -> int:
 def _run_evaluate(args: argparse.Namespace) -> int:
     from agents.evaluation import evaluate
 
+    check_writable_dir(args.out)
     result = evaluate(
         args.agents,
         episodes=args.episodes,
@@ -153,6 +212,7 @@ def _run_evaluate(args: argparse.Namespace) -> int:
 def _run_demo(args: argparse.Namespace) -> int:
     from agents.demo import demo
 
+    check_writable_dir(args.out)
     demo(
         args.agent,
         seed=args.seed,
@@ -173,9 +233,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parser.parse_args(argv)
     try:
         return _COMMANDS[args.command](args)
-    except (ValueError, FileNotFoundError) as exc:
-        # Config, agent spec, env option or policy-file problems: a usage error.
-        parser.exit(2, f"{PROG} {args.command}: error: {exc}\n")
+    except (ValueError, TypeError, OSError) as exc:
+        # Config, agent spec, env option, file or output-folder problems: a usage
+        # error, on one line.
+        message = " ".join(str(exc).split())
+        parser.exit(2, f"{PROG} {args.command}: error: {message}\n")
     except KeyboardInterrupt as exc:
         print(f"{PROG} {args.command}: {exc or 'interrupted'}", file=sys.stderr)
         return 130

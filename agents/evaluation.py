@@ -36,7 +36,6 @@ episodes inside its 95% χ² band, and the map RMSE, over time.
 from __future__ import annotations
 
 import csv
-import functools
 import gzip
 import hashlib
 import io
@@ -45,11 +44,11 @@ import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from statistics import NormalDist
 from typing import Any
 
 import gymnasium as gym
 import numpy as np
+from scipy.stats import t as student_t
 
 from agents.base import Agent
 from agents.registry import agent_label, make_agent, make_env
@@ -76,102 +75,13 @@ POSE_DOF = 3  # x, y, θ: the pose NEES's degrees of freedom
 
 
 # ---------------------------------------------------------------------- statistics
-def _betacf(a: float, b: float, x: float) -> float:
-    """Continued fraction of the incomplete beta function (modified Lentz)."""
-    tiny = 1e-300
-    qab, qap, qam = a + b, a + 1.0, a - 1.0
-    c, d = 1.0, 1.0 - qab * x / qap
-    d = 1.0 / (d if abs(d) > tiny else tiny)
-    h = d
-    for m in range(1, 10_000):
-        m2 = 2 * m
-        aa = m * (b - m) * x / ((qam + m2) * (a + m2))
-        d = 1.0 + aa * d
-        d = 1.0 / (d if abs(d) > tiny else tiny)
-        c = 1.0 + aa / c
-        c = c if abs(c) > tiny else tiny
-        h *= d * c
-        aa = -(a + m) * (qab + m) * x / ((a + m2) * (qap + m2))
-        d = 1.0 + aa * d
-        d = 1.0 / (d if abs(d) > tiny else tiny)
-        c = 1.0 + aa / c
-        c = c if abs(c) > tiny else tiny
-        delta = d * c
-        h *= delta
-        if abs(delta - 1.0) < 1e-15:
-            return h
-    raise ArithmeticError(f"incomplete beta did not converge (a={a}, b={b}, x={x})")
-
-
-def betainc(a: float, b: float, x: float) -> float:
-    """The regularized incomplete beta function I_x(a, b), a, b > 0, x in [0, 1]."""
-    if not (a > 0 and b > 0):
-        raise ValueError(f"betainc needs a, b > 0, got a={a}, b={b}")
-    if not 0.0 <= x <= 1.0:
-        raise ValueError(f"betainc needs x in [0, 1], got {x}")
-    if x == 0.0 or x == 1.0:
-        return x
-    log_front = (
-        math.lgamma(a + b) - math.lgamma(a) - math.lgamma(b) + a * math.log(x) + b * math.log1p(-x)
-    )
-    if x < (a + 1.0) / (a + b + 2.0):
-        return math.exp(log_front) * _betacf(a, b, x) / a
-    return 1.0 - math.exp(log_front) * _betacf(b, a, 1.0 - x) / b
-
-
-def student_t_cdf(t: float, dof: float) -> float:
-    """P(T ≤ t) for Student's t with ``dof`` > 0 degrees of freedom."""
-    if not dof > 0:
-        raise ValueError(f"dof must be > 0, got {dof}")
-    if math.isinf(t):
-        return 1.0 if t > 0 else 0.0
-    tail = 0.5 * betainc(0.5 * dof, 0.5, dof / (dof + t * t))
-    return 1.0 - tail if t > 0 else tail
-
-
-# Beyond this many dof the Cornish–Fisher expansion below is exact to < 1e-9.
-_CORNISH_FISHER_DOF = 1000.0
-
-
-@functools.lru_cache(maxsize=1024)
 def t_quantile(p: float, dof: float) -> float:
-    """The p-quantile of Student's t with ``dof`` degrees of freedom (no scipy).
-
-    Inverts :func:`student_t_cdf` (via the regularized incomplete beta function) by
-    bisection to ~1e-12; beyond 1000 dof it uses the Cornish–Fisher expansion around
-    the normal quantile, which is as exact there and never slow.
-    """
+    """The p-quantile of Student's t with ``dof`` degrees of freedom (scipy's)."""
     if not 0.0 < p < 1.0:
         raise ValueError(f"p must be in (0, 1), got {p}")
     if not (dof > 0 and not math.isnan(dof)):
         raise ValueError(f"dof must be > 0, got {dof}")
-    if p == 0.5:
-        return 0.0
-    if p < 0.5:
-        return -t_quantile(1.0 - p, dof)
-    z = NormalDist().inv_cdf(p)
-    if math.isinf(dof):
-        return z
-    if dof > _CORNISH_FISHER_DOF:
-        v = float(dof)
-        return (
-            z
-            + (z**3 + z) / (4 * v)
-            + (5 * z**5 + 16 * z**3 + 3 * z) / (96 * v**2)
-            + (3 * z**7 + 19 * z**5 + 17 * z**3 - 15 * z) / (384 * v**3)
-        )
-    lo, hi = z, max(2.0 * z, 1.0)  # the t quantile lies above the normal one
-    while student_t_cdf(hi, dof) < p:
-        lo, hi = hi, 2.0 * hi
-    for _ in range(200):
-        mid = 0.5 * (lo + hi)
-        if student_t_cdf(mid, dof) < p:
-            lo = mid
-        else:
-            hi = mid
-        if hi - lo <= 1e-13 * hi:
-            break
-    return 0.5 * (lo + hi)
+    return float(student_t.ppf(p, dof))
 
 
 def mean_ci(values: Sequence[float], confidence: float = CONFIDENCE) -> tuple[float, float, int]:
@@ -257,7 +167,6 @@ def run_episode(
     (and the last); ``collect_detections`` keeps world-frame detection points."""
     base = env.unwrapped
     obs, info = env.reset(seed=seed)
-    raw = base.raw_env
     rows: list[dict[str, Any]] = []
     est: list[np.ndarray] = []
     rewards: list[float] = []
@@ -270,7 +179,7 @@ def run_episode(
         if render_every and (step % render_every == 0 or done):
             frames.append(np.asarray(env.render()))
         if collect_detections:
-            detections.append(raw.render_frame().detections_world)
+            detections.append(base.render_frame().detections_world)
 
     record(0, False)
     world = _world_digest(info)
@@ -291,20 +200,25 @@ def run_episode(
     def col(key: str, dtype: Any = np.float64) -> np.ndarray:
         return np.array([r[key] for r in rows], dtype=dtype)
 
+    def metric(key: str) -> np.ndarray:
+        # The env leaves an undefined metric out of info; here it is NaN, which the
+        # aggregation leaves out of the means.
+        return np.array([r.get(key, math.nan) for r in rows], dtype=np.float64)
+
     return EpisodeRecord(
         seed=seed,
-        n_landmarks=int(raw.n_landmarks),
+        n_landmarks=int(base.n_landmarks),
         true_poses=np.stack([r["pose"] for r in rows]).astype(np.float64),
         est_poses=np.stack(est),
         entropy=col("entropy"),
         landmarks_known=col("landmarks_known"),
         pose_error=col("pose_error"),
-        pose_nees=col("pose_nees"),
-        map_rmse=col("map_rmse"),
+        pose_nees=metric("pose_nees"),
+        map_rmse=metric("map_rmse"),
         collision=col("collision", bool),
         rewards=np.asarray(rewards, dtype=np.float64),
-        layout=raw.layout,
-        belief=base.belief_wrapper.belief_overlay(),
+        layout=base.layout,
+        belief=base.belief_overlay(),
         world=world,
         frames=frames,
         detections_world=detections,

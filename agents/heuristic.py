@@ -93,7 +93,7 @@ class HeuristicAgent(ScriptedAgent):
     """Base of the exploration heuristics that plan on the EKF-SLAM belief.
 
     It reads only the belief (``env.unwrapped.filter``), the known map
-    (``raw_env.layout`` obstacles and walls) and the env's configuration; never the
+    (``layout`` obstacles and walls) and the env's configuration; never the
     true pose or landmark positions. Each episode it rebuilds the maps
     (:class:`ExplorationMemory`), on ``episode_start`` or when it notices a new episode
     by itself (:class:`EpisodeWatch`). When it runs into something the map does not
@@ -147,7 +147,7 @@ class HeuristicAgent(ScriptedAgent):
         base = self._base
         p = self.params
         self._memory = ExplorationMemory(
-            base.raw_env.layout,
+            base.layout,
             base.config,
             planning_resolution=p.planning_resolution,
             coverage_resolution=p.coverage_resolution,

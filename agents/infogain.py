@@ -135,8 +135,8 @@ class InfoGainAgent(HeuristicAgent):
         self._range = max(float(cfg.sensor.max_range) - self.params.range_margin, 0.0)
         fov = float(cfg.sensor.fov)
         self._half_fov = math.pi if fov >= 2.0 * math.pi else 0.5 * fov - self.params.fov_margin
-        self._n_total = int(self._base.raw_env.n_landmarks)
-        self._prior_var = landmark_prior_variance(*self._base.raw_env.arena_size)
+        self._n_total = int(self._base.n_landmarks)
+        self._prior_var = landmark_prior_variance(*self._base.arena_size)
 
     def _new_episode(self) -> None:
         self._field: np.ndarray | None = None

@@ -664,13 +664,13 @@ def make_params(cls: type, params: dict[str, Any]) -> Any:
 
 def belief_env(env: Any) -> Any:
     """The ``slam_env/ActiveSLAM-v0`` env under ``env``'s wrappers: the object whose
-    ``filter`` holds the belief and whose ``raw_env`` holds the known map. Raises
+    ``filter`` holds the belief and whose ``layout`` is the known map. Raises
     ``TypeError`` for anything else (the heuristics plan on the EKF belief) and for a
     discrete action space (they output continuous speed and turn commands)."""
     from gymnasium import spaces
 
     base = getattr(env, "unwrapped", env)
-    if not (hasattr(base, "filter") and hasattr(base, "raw_env")):
+    if not (hasattr(base, "filter") and hasattr(type(base), "layout")):
         raise TypeError(
             "the exploration heuristics act on the EKF-SLAM belief: pass an env made with "
             f"gym.make('slam_env/ActiveSLAM-v0'), got {type(base).__name__}"
@@ -705,7 +705,7 @@ class EpisodeWatch:
 
     def is_new(self, base: Any) -> bool:
         """Whether ``base`` (the ActiveSLAM env) started an episode since :meth:`mark`."""
-        layout = base.raw_env.layout
+        layout = base.layout
         f = base.filter
         new = (
             layout is not self._layout
@@ -717,7 +717,7 @@ class EpisodeWatch:
 
     def mark(self, base: Any) -> None:
         """Record the state after the agent chose an action."""
-        self._layout = base.raw_env.layout
+        self._layout = base.layout
         self._filter = base.filter
         self._n_landmarks = int(base.filter.n_landmarks)
         self._acted = True

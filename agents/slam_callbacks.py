@@ -25,6 +25,7 @@ from stable_baselines3.common.logger import Logger
 
 from agents.sb3_vector import InfoRow
 from agents.slam_metrics import (
+    OPTIONAL_STEP_KEYS,
     SLAM_METRICS,
     STEP_KEYS,
     EpisodeTallies,
@@ -51,8 +52,9 @@ def vector_columns(
     views of one vector info (:class:`agents.sb3_vector.SB3VectorEnv`'s): the rows of
     the sub-envs that go on are read from its arrays in one go, those of the sub-envs
     that ``finished`` (their episodes' last infos) as they are. With the columns, the
-    ``_key`` masks saying which of the going sub-envs reported each key. None for
-    other infos."""
+    ``_key`` masks saying which of the going sub-envs reported each required key
+    (the :data:`agents.slam_metrics.OPTIONAL_STEP_KEYS` are NaN where unreported).
+    None for other infos."""
     going = [i for i in range(len(infos)) if i not in finished] if finished else range(len(infos))
     if not going:
         return None
@@ -63,13 +65,25 @@ def vector_columns(
     # Every going row must read this vector info (a wrapper may replace any row).
     if not all(type(infos[i]) is InfoRow and infos[i].vector_info is vector for i in going):
         return None
+    required = [key for key in keys if key not in OPTIONAL_STEP_KEYS]
+    columns = [_column(vector, key, len(infos)) for key in keys]
     if not finished:
-        return [vector[key] for key in keys], [vector[f"_{key}"] for key in keys]
-    columns = [np.array(vector[key]) for key in keys]
+        return columns, [vector[f"_{key}"] for key in required]
+    columns = [np.array(column) for column in columns]  # fresh: rows are written
     for i in finished:
         for column, key in zip(columns, keys, strict=True):
-            column[i] = infos[i][key]
-    return columns, [vector[f"_{key}"][going] for key in keys]
+            column[i] = infos[i].get(key, math.nan) if key in OPTIONAL_STEP_KEYS else infos[i][key]
+    return columns, [vector[f"_{key}"][going] for key in required]
+
+
+def _column(vector: Mapping[str, Any], key: str, num_envs: int) -> np.ndarray:
+    """``key``'s (B,) column of a vector info: an optional key NaN where unreported,
+    a required one the info's own array."""
+    if key not in OPTIONAL_STEP_KEYS:
+        return vector[key]
+    if key not in vector:
+        return np.full(num_envs, math.nan)
+    return np.where(vector[f"_{key}"], vector[key], math.nan)
 
 
 class SlamMetricsCallback(BaseCallback):

@@ -53,6 +53,9 @@ BEST_MODEL_CRITERION = (
 
 #: The keys of a step info that a tally reads (the rest only at an episode's end).
 STEP_KEYS = ("collision", "pose_nees", "landmarks_known")
+#: Those that the env leaves out where they are undefined (a covariance gone
+#: non-finite): read as NaN, which the tally does not average.
+OPTIONAL_STEP_KEYS = ("pose_nees",)
 
 
 class EpisodeTallies:
@@ -89,7 +92,7 @@ class EpisodeTallies:
         collision, nees, known = self._values
         for info in infos:
             collision.append(info["collision"])
-            nees.append(info["pose_nees"])
+            nees.append(info.get("pose_nees", math.nan))
             known.append(info["landmarks_known"])
         self._kept += 1
         if self._kept >= self.block:
@@ -99,7 +102,8 @@ class EpisodeTallies:
         self, collision: np.ndarray, pose_nees: np.ndarray, landmarks_known: np.ndarray
     ) -> None:
         """One step of every sub-env from the :data:`STEP_KEYS` columns of their step
-        infos, (B,) arrays (bool, float, int), as a vector env's info holds them."""
+        infos, (B,) arrays (bool, float, int; NaN for an undefined NEES), as a vector
+        env's info holds them."""
         if self._values[0]:
             self._count()
         self._columns.append((collision, pose_nees, landmarks_known))
@@ -160,7 +164,7 @@ class EpisodeTallies:
             else math.nan,
             "reached_90pct_mapped": float(reached),
             "final_entropy": float(final_info["entropy"]),
-            "map_rmse": float(final_info["map_rmse"]),
+            "map_rmse": float(final_info.get("map_rmse", math.nan)),
             "mean_pose_nees": float(self.nees_sum[index]) / count if count else math.nan,
             "collisions": float(self.collisions[index]),
             "diverged": float(bool(final_info["diverged"])),

@@ -5,8 +5,9 @@ shared machine, where wall-clock rates wander by tens of percent between runs.
 
 Each env is stepped in a child process under ``valgrind --tool=callgrind`` twice, for
 0 and for ``--steps`` random steps after the same warm-up; the difference divided by
-``--steps`` is the cost of a step, imports and set-up cancelling out. The count is the
-same whatever else the machine is doing. It is not time: code that calls many small
+``--steps`` is the cost of a step, imports and set-up cancelling out. A native vector
+env of B sub-envs takes ``--steps / B`` vector steps, and its figure is per env-step.
+The count is the same whatever else the machine is doing. It is not time: code that calls many small
 numpy functions runs fewer instructions per second than the pymunk queries of the raw
 env, so a ratio of instructions is an upper bound on the ratio of rates that
 ``bench_env.py`` measures.
@@ -26,16 +27,21 @@ from slam_env.active_slam import DEFAULT_SCAN_BEAMS
 
 CALLGRIND = ("valgrind", "--tool=callgrind", "--callgrind-out-file=/dev/null")
 
-# label -> (env ID, options); the raw rows are what the wrapped ones are compared with.
+# label -> (env ID, options, sub-envs or 0 for a single env); the raw rows are what
+# the wrapped ones are compared with.
 ENVS = {
-    "CartPole-v1": ("CartPole-v1", {}),
-    "Landmarks-v0": ("slam_env/Landmarks-v0", {}),
+    "CartPole-v1": ("CartPole-v1", {}, 0),
+    "Landmarks-v0": ("slam_env/Landmarks-v0", {}, 0),
     "Landmarks-v0 with the scan": (
         "slam_env/Landmarks-v0",
         {"scan_beams": DEFAULT_SCAN_BEAMS, "bumper": True},
+        0,
     ),
-    "ActiveSLAM-v0 belief only": ("slam_env/ActiveSLAM-v0", {"coverage": False}),
-    "ActiveSLAM-v0": ("slam_env/ActiveSLAM-v0", {}),
+    "ActiveSLAM-v0 belief only": ("slam_env/ActiveSLAM-v0", {"coverage": False}, 0),
+    "ActiveSLAM-v0": ("slam_env/ActiveSLAM-v0", {}, 0),
+    "CartPole-v1 vector, B = 64": ("CartPole-v1", {}, 64),
+    "Landmarks-v0 native vector, B = 64": ("slam_env/Landmarks-v0", {}, 64),
+    "ActiveSLAM-v0 native vector, B = 64": ("slam_env/ActiveSLAM-v0", {}, 64),
 }
 
 _CHILD = """
@@ -52,15 +58,33 @@ for action in actions:
         env.reset()
 """
 
+# A native vector env resets its sub-envs itself.
+_VECTOR_CHILD = """
+import sys
+import gymnasium as gym
+import slam_env
+env = gym.make_vec({env_id!r}, num_envs={num_envs}, vectorization_mode="vector_entry_point",
+                   **{options!r})
+env.action_space.seed(0)
+actions = [env.action_space.sample() for _ in range({warmup} + {steps})]
+env.reset(seed=0)
+for action in actions:
+    env.step(action)
+"""
 
-def instructions(code: str, cwd: str | None = None) -> int:
-    """Instructions of a child Python process that runs ``code`` (in ``cwd``)."""
+
+def count(env_id: str, options: dict, num_envs: int, steps: int, warmup: int) -> int:
+    """Instructions of a child process that makes the env and takes warmup + steps
+    (vector steps of ``num_envs`` sub-envs, or single-env steps if 0)."""
+    child = _VECTOR_CHILD if num_envs else _CHILD
+    code = child.format(
+        env_id=env_id, options=options, num_envs=num_envs, steps=steps, warmup=warmup
+    )
     result = subprocess.run(
         [*CALLGRIND, sys.executable, "-c", code],
         capture_output=True,
         text=True,
         check=True,
-        cwd=cwd,
     )
     found = re.search(r"Collected : (\d+)", result.stderr)
     if found is None:
@@ -68,36 +92,35 @@ def instructions(code: str, cwd: str | None = None) -> int:
     return int(found.group(1))
 
 
-def count(env_id: str, options: dict, steps: int, warmup: int) -> int:
-    """Instructions of a child process that makes the env and takes warmup + steps."""
-    return instructions(_CHILD.format(env_id=env_id, options=options, steps=steps, warmup=warmup))
-
-
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--steps", type=int, default=1000)
     parser.add_argument("--warmup", type=int, default=200)
     args = parser.parse_args(argv)
-    if args.steps < 1:
-        parser.error("--steps must be at least 1")
+    if args.steps < 64:
+        parser.error("--steps must be at least 64 (one vector step of the 64 sub-envs)")
     if shutil.which("valgrind") is None:
         sys.exit("valgrind is not installed (Debian: apt install valgrind)")
 
     # The counts do not depend on load, so the children run side by side.
     with ThreadPoolExecutor(max_workers=os.cpu_count()) as pool:
-        runs = {
-            (label, steps): pool.submit(count, env_id, options, steps, args.warmup)
-            for label, (env_id, options) in ENVS.items()
-            for steps in (0, args.steps)
-        }
-        per_step = {
-            label: (runs[label, args.steps].result() - runs[label, 0].result()) / args.steps
-            for label in ENVS
-        }
+        runs = {}
+        for label, (env_id, options, b) in ENVS.items():
+            steps, warmup = (
+                (args.steps // b, max(args.warmup // b, 1)) if b else (args.steps, args.warmup)
+            )
+            for n in (0, steps):
+                runs[label, n] = pool.submit(count, env_id, options, b, n, warmup)
+        per_step = {}
+        for label, (_, _, b) in ENVS.items():
+            steps = args.steps // b if b else args.steps
+            per_step[label] = (runs[label, steps].result() - runs[label, 0].result()) / (
+                steps * max(b, 1)
+            )
 
     cartpole = per_step["CartPole-v1"]
     raw = per_step["Landmarks-v0 with the scan"]
-    print("| env | instructions/step | CartPole-v1 / env | raw with scan / env |")
+    print("| env | instructions/env-step | CartPole-v1 / env | raw with scan / env |")
     print("|---|---:|---:|---:|")
     for label, n in per_step.items():
         vs_raw = f"{raw / n:.2f}" if label.startswith("ActiveSLAM") else ""

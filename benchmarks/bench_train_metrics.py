@@ -28,6 +28,9 @@ from __future__ import annotations
 
 import argparse
 import json
+import re
+import subprocess
+import sys
 import tempfile
 import time
 from pathlib import Path
@@ -186,7 +189,7 @@ def instruction_counts(steps: int) -> tuple[float, list[tuple[str, int, float]]]
     for (infos, B): each the difference of two children, 0 and ``steps`` steps."""
     from concurrent.futures import ThreadPoolExecutor
 
-    from bench_instructions import count, instructions
+    from bench_instructions import CALLGRIND, count
 
     cases = [("dict rows", 1), ("dict rows", 2), ("native vector rows", 8)]
     cases.append(("native vector rows", 64))
@@ -195,10 +198,18 @@ def instruction_counts(steps: int) -> tuple[float, list[tuple[str, int, float]]]
         kind = "dict" if rows == "dict rows" else "vector"
         # Run beside this file, so that the child imports step_callback from it.
         here = str(Path(__file__).resolve().parent)
-        return instructions(_CALLBACK_CHILD.format(b=b, rows=kind, steps=n), cwd=here)
+        code = _CALLBACK_CHILD.format(b=b, rows=kind, steps=n)
+        run = subprocess.run(
+            [*CALLGRIND, sys.executable, "-c", code],
+            capture_output=True,
+            text=True,
+            check=True,
+            cwd=here,
+        )
+        return int(re.search(r"Collected : (\d+)", run.stderr).group(1))
 
     with ThreadPoolExecutor(max_workers=2) as pool:
-        env_runs = [pool.submit(count, "slam_env/ActiveSLAM-v0", {}, n, 50) for n in (0, steps)]
+        env_runs = [pool.submit(count, "slam_env/ActiveSLAM-v0", {}, 0, n, 50) for n in (0, steps)]
         runs = {
             (case, n): pool.submit(callback_run, *case, n) for case in cases for n in (0, steps)
         }

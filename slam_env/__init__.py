@@ -16,7 +16,7 @@ from slam_env.config import (
 
 try:
     import gymnasium  # noqa: F401
-except ImportError:  # the filter alone (slam_env.ekf) needs only numpy
+except ImportError:  # the filter alone (slam_env.ekf) needs only numpy and numba
     pass
 else:
     from slam_env.registration import register_envs

@@ -1,38 +1,36 @@
-"""``slam_env/ActiveSLAM-v0``: the raw env behind the EKF-SLAM wrapper and the
-active-SLAM reward, as one ``gymnasium.Env``.
-
-The registered env is a thin :class:`gymnasium.Env` that owns the wrapper stack
-``LandmarksEnv → EKFSLAMWrapper → CoverageWrapper → ActiveSLAMReward`` and delegates to
-it, so that the env checkers see an unwrapped env and users reach the filter as
-``env.unwrapped.filter``.
-Users who want the wrappers on their own env use them directly.
+"""``slam_env/ActiveSLAM-v0``: the raw stream, the EKF-SLAM belief and the
+active-SLAM reward as one ``gymnasium.Env``: sub-env 0 of
+:class:`slam_env.active_core.ActiveCore`, which computes what the wrapper stack
+``LandmarksEnv → EKFSLAMWrapper → CoverageWrapper → ActiveSLAMReward`` computes, with
+the same kernels, in a few compiled calls. Users reach the filter as
+``env.unwrapped.filter``; users who want the wrappers on their own env use them
+directly.
 """
 
 from __future__ import annotations
 
+import inspect
 from collections.abc import Mapping
-from typing import Any, SupportsFloat
+from typing import Any
 
-import gymnasium as gym
 import numpy as np
 
-from slam_env.coverage import CoverageWrapper
+from slam_env.active_core import ActiveCore
+from slam_env.active_options import DEFAULT_SCAN_BEAMS, ActiveSLAMOptions, active_config
+from slam_env.config import check_option_names
 from slam_env.ekf import EKFSLAM
-from slam_env.env import LandmarksEnv
-from slam_env.wrappers import (
-    DEFAULT_GATE,
-    ActiveSLAMReward,
-    ActiveSLAMRewardWeights,
-    EKFSLAMWrapper,
-)
+from slam_env.env import ENV_ARGUMENTS
+from slam_env.overlay import BeliefOverlay
+from slam_env.single_env import CoreEnv
+from slam_env.wrappers import DEFAULT_GATE, ActiveSLAMRewardWeights
 
-# Proximity beams in the active-SLAM observation, unless the options set them.
-DEFAULT_SCAN_BEAMS = 16
+__all__ = ["DEFAULT_SCAN_BEAMS", "LIVE_FIGURES", "ActiveSLAMEnv"]
+
 # The belief's figures (``info`` keys) shown live beside the rendered map.
 LIVE_FIGURES = ("entropy", "map_rmse", "pose_nees")
 
 
-class ActiveSLAMEnv(gym.Env):
+class ActiveSLAMEnv(CoreEnv):
     """Active SLAM: act on the EKF-SLAM belief, be paid for reducing its uncertainty.
 
     The world, robot, sensors and episode end are those of
@@ -54,10 +52,21 @@ class ActiveSLAMEnv(gym.Env):
     hold, and to feel when one blocks it (a corner can hide between two beams). The
     egocentric observation is the belief features, then the scan and the bumper, then
     the coverage features; the full one holds them as the ``scan``, ``bumper`` and
-    ``coverage`` keys.
-    """
+    ``coverage`` keys. These defaults hold whichever form the world's options take
+    (``fov=2.5`` or ``sensor={"fov": 2.5}``); a whole ``config`` is taken as it is.
+    Options are checked (types, numpy scalars, the resource budget of
+    :mod:`slam_env.budget`) before anything is built.
 
-    metadata = LandmarksEnv.metadata
+    ## Info
+    The raw env's, then the belief's diagnostics (see
+    :class:`slam_env.wrappers.EKFSLAMWrapper`), ``swept_fraction`` and the reward
+    terms. A numerical breakdown of the filter is reported as ``diverged``, never
+    raised out of ``step``. ``info`` never holds NaN: a metric that is undefined is
+    absent, so ``map_rmse`` appears with the first landmark in the belief (read it with
+    ``info.get``). Absent rather than a sentinel: equal runs give equal infos, no
+    made-up value slips into an average, and Gymnasium's vector envs mark the sub-envs
+    that did not report it (``info["_map_rmse"]``).
+    """
 
     def __init__(
         self,
@@ -72,85 +81,63 @@ class ActiveSLAMEnv(gym.Env):
         coverage: bool = True,
         **env_options: Any,
     ) -> None:
-        if isinstance(reward_weights, Mapping):
-            valid = ActiveSLAMRewardWeights.__dataclass_fields__
-            unknown = sorted(set(reward_weights) - set(valid))
-            if unknown:
-                raise TypeError(f"unknown reward_weights {unknown}; valid: {sorted(valid)}")
-            reward_weights = ActiveSLAMRewardWeights(**reward_weights)
-        # A policy must see obstacles, which the landmark map does not hold, and feel
-        # when one blocks it (a corner can hide between two beams).
-        if not {"config", "sensor", "scan_beams"} & set(env_options):
-            env_options["scan_beams"] = DEFAULT_SCAN_BEAMS
-        if not {"config", "sensor", "bumper"} & set(env_options):
-            env_options["bumper"] = True
-        self.raw_env = LandmarksEnv(render_mode=render_mode, **env_options)
-        self.belief_wrapper = EKFSLAMWrapper(
-            self.raw_env,
-            observation=observation,
-            correction=correction,
-            gate=gate,
-            alphas=filter_alphas,
-            control_noise=filter_control_noise,
-            measurement_cov=filter_measurement_cov,
+        opts = ActiveSLAMOptions(
+            observation,
+            correction,
+            gate,
+            filter_alphas,
+            filter_control_noise,
+            filter_measurement_cov,
+            reward_weights,
+            coverage,
         )
-        if not isinstance(coverage, bool):
-            raise TypeError(f"coverage must be a bool, got {coverage!r}")
-        belief: gym.Env = self.belief_wrapper
-        if coverage:
-            belief = CoverageWrapper(belief)
-        self._stack = ActiveSLAMReward(belief, reward_weights)
-        self.render_mode = render_mode
+        check_option_names(env_options, ENV_ARGUMENTS + _OWN_ARGUMENTS)
+        config = active_config(opts, env_options, num_envs=1)
+        # A batch of one: the native vector env runs the same core for B sub-envs.
+        self._setup(ActiveCore(config, 1, opts), render_mode)
+        self.options = opts
         # What render() draws beyond the belief: the estimated path and live figures,
         # kept only when rendering.
         self._estimated_trail: list[tuple[float, float]] = []
         self._figures: dict[str, float] = {}
-        self.observation_space = self._stack.observation_space
-        self.action_space = self._stack.action_space
 
     @property
     def filter(self) -> EKFSLAM:
-        """The EKF-SLAM filter holding the current belief."""
-        return self.belief_wrapper.filter
+        """The EKF-SLAM filter holding the current belief (its state is the core's)."""
+        return self._core.filter(0)
 
     @property
-    def config(self):
-        return self.raw_env.config
+    def reward_weights(self) -> ActiveSLAMRewardWeights:
+        """The weights of the reward terms."""
+        return self.options.weights
 
-    def reset(
-        self, *, seed: int | None = None, options: dict[str, Any] | None = None
-    ) -> tuple[Any, dict[str, Any]]:
-        super().reset(seed=seed)
-        obs, info = self._stack.reset(seed=seed, options=options)
-        # One random stream for the whole stack: the raw env's.
-        self._np_random = self.raw_env.np_random
-        self._estimated_trail = []
-        self._remember(info)
-        return obs, info
-
-    def step(self, action: Any) -> tuple[Any, SupportsFloat, bool, bool, dict[str, Any]]:
-        out = self._stack.step(action)
-        self._remember(out[4])
-        return out
+    def belief_overlay(self, true_landmarks: Any = None) -> BeliefOverlay:
+        """What the pictures draw of the belief (``true_landmarks`` (N, 2) to draw the
+        truth beside it, if wanted)."""
+        return self._core.belief_overlay(0, true_landmarks)
 
     def _remember(self, info: dict[str, Any]) -> None:
-        """Keep the estimated position and the live figures for the picture."""
+        """Keep the true and estimated positions and the live figures (map_rmse is
+        absent until a landmark is mapped) for the picture."""
         if self.render_mode is None:
             return
+        super()._remember(info)
+        if self._steps == 0:
+            self._estimated_trail = []
         x, y = self.filter.pose[:2].tolist()
         self._estimated_trail.append((x, y))
-        self._figures = {name: info[name] for name in LIVE_FIGURES}
+        self._figures = {name: info[name] for name in LIVE_FIGURES if name in info}
 
-    def render(self) -> Any:
-        raw = self.raw_env
-        if self.render_mode is None or not raw._started:
-            return self._stack.render()  # warns or raises as the raw env does
-        overlay = self.belief_wrapper.belief_overlay()
+    def _overlay(self) -> BeliefOverlay:
+        overlay = self.belief_overlay()
         overlay.trail = np.array(self._estimated_trail, dtype=np.float64).reshape(-1, 2)
         overlay.figures = dict(self._figures)
-        raw.belief_overlay = overlay
-        return raw.render()
+        return overlay
 
-    def close(self) -> None:
-        self._stack.close()
-        super().close()
+
+# ActiveSLAMEnv's own arguments, for the list of valid names in errors.
+_OWN_ARGUMENTS = tuple(
+    name
+    for name, p in inspect.signature(ActiveSLAMEnv.__init__).parameters.items()
+    if name != "self" and p.kind is p.POSITIONAL_OR_KEYWORD
+)

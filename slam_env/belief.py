@@ -8,6 +8,8 @@ Two encodings, both slotted by landmark ID (slot i is always landmark i):
   :class:`EgocentricEncoding` for the layout).
 
 Both clip to their (finite) bounds; the wrapper reports in ``info`` when it had to.
+Both are computed by kernels over B worlds (:mod:`slam_env.kernels.egocentric`,
+:mod:`slam_env.kernels.full_belief`); ``encode`` is the case of one belief.
 """
 
 from __future__ import annotations
@@ -18,6 +20,10 @@ from dataclasses import dataclass
 
 import numpy as np
 from gymnasium import spaces
+
+from slam_env.kernels.belief_state import SINGLE, BeliefBatch
+from slam_env.kernels.egocentric import EgocentricParams, encode_egocentric
+from slam_env.kernels.full_belief import FullBelief, encode_full
 
 # Scales that turn standard deviations into features in [0, 1): tanh(σ / scale).
 POSITION_STD_SCALE = 1.0  # m
@@ -58,6 +64,18 @@ def unpack_full_belief(obs: dict[str, np.ndarray]) -> tuple[np.ndarray, np.ndarr
     return mean, obs["cov"].astype(np.float64).reshape(dim, dim), obs["known"] > 0.5
 
 
+def single_belief(mean: np.ndarray, cov: np.ndarray, state_to_id: Sequence[int]) -> BeliefBatch:
+    """One belief in the filter's state order (mean (d,), cov (d, d), the landmark ID
+    of each slot) as a batch of one."""
+    ids = np.asarray(state_to_id, dtype=np.int64)
+    return BeliefBatch(
+        np.ascontiguousarray(mean, dtype=np.float64)[None],
+        np.ascontiguousarray(cov, dtype=np.float64)[None],
+        np.full(SINGLE, ids.shape[0], dtype=np.int64),
+        np.ascontiguousarray(ids)[None],
+    )
+
+
 class FullEncoding:
     """``Dict(mean: (D,), cov: (D·D,), known: (M,))``, float32, with D = 3 + 2M.
 
@@ -65,7 +83,8 @@ class FullEncoding:
     vector as stable-baselines3 expects; :func:`unpack_full_belief` reshapes it)
     hold the pose in entries 0..2 and landmark i in 3+2i, 4+2i; unknown slots are
     zero with ``known[i] = 0``. Positions are bounded by ±10 arena sizes and
-    (co)variances by that squared; the heading lies in [−π, π].
+    (co)variances by that squared; the heading lies in [−π, π]. Entries beyond the
+    bounds are clipped onto them, NaN read as 0.
     """
 
     def __init__(self, geometry: BeliefGeometry) -> None:
@@ -76,8 +95,9 @@ class FullEncoding:
         high_mean = np.full(dim, extent, dtype=np.float32)
         high_mean[2] = math.pi
         cov_bound = np.float32(extent**2)
-        self._mean_high = high_mean
-        self._cov_bound = cov_bound
+        # float64 copies of the float32 bounds, for the kernel.
+        self._mean_bound = high_mean.astype(np.float64)
+        self._cov_bound = float(cov_bound)
         self.space = spaces.Dict(
             {
                 "mean": spaces.Box(-high_mean, high_mean, dtype=np.float32),
@@ -86,30 +106,34 @@ class FullEncoding:
             }
         )
 
-    def encode(
-        self, mean: np.ndarray, cov: np.ndarray, state_to_id: np.ndarray
-    ) -> tuple[dict[str, np.ndarray], bool]:
-        """Encode the filter's state; returns the observation and whether it clipped."""
+    def empty(self, worlds: int) -> FullBelief:
+        """Fresh (B, …) arrays for :meth:`encode_batch` to write."""
         m = self.geometry.max_landmarks
         dim = 3 + 2 * m
-        idx = slot_indices(state_to_id)
-        full_mean = np.zeros(dim, dtype=np.float64)
-        full_cov = np.zeros((dim, dim), dtype=np.float64)
-        full_mean[idx] = mean
-        full_cov[np.ix_(idx, idx)] = cov
-        known = np.zeros(m, dtype=np.float32)
-        known[np.asarray(state_to_id, dtype=np.int64)] = 1.0
-        clipped_mean = np.clip(np.nan_to_num(full_mean), -self._mean_high, self._mean_high)
-        clipped_cov = np.clip(np.nan_to_num(full_cov), -self._cov_bound, self._cov_bound)
-        clipped = not (  # also true for any NaN
-            np.array_equal(clipped_mean, full_mean) and np.array_equal(clipped_cov, full_cov)
+        return FullBelief(
+            np.empty((worlds, dim), np.float32),
+            np.empty((worlds, dim * dim), np.float32),
+            np.empty((worlds, m), np.float32),
+            np.empty(worlds, np.bool_),
         )
-        obs = {
-            "mean": clipped_mean.astype(np.float32),
-            "cov": clipped_cov.astype(np.float32).ravel(),
-            "known": known,
-        }
-        return obs, clipped
+
+    def encode_batch(
+        self, belief: BeliefBatch, out: FullBelief, active: np.ndarray | None = None
+    ) -> None:
+        """Encode the B beliefs of ``active`` (B,) bool (default all) into ``out`` (from
+        :meth:`empty`)."""
+        active = np.ones(belief.x.shape[0], dtype=np.bool_) if active is None else active
+        encode_full(*belief, self._mean_bound, self._cov_bound, *out, active)
+
+    def encode(
+        self, mean: np.ndarray, cov: np.ndarray, state_to_id: Sequence[int]
+    ) -> tuple[dict[str, np.ndarray], bool]:
+        """Encode one belief in the filter's state order (mean (d,), cov (d, d), the
+        landmark ID of each slot); returns the observation and whether it clipped."""
+        out = self.empty(SINGLE)
+        self.encode_batch(single_belief(mean, cov, state_to_id), out)
+        obs = {"mean": out.mean[0], "cov": out.cov[0], "known": out.known[0]}
+        return obs, bool(out.clipped[0])
 
 
 class EgocentricEncoding:
@@ -124,7 +148,9 @@ class EgocentricEncoding:
     | 8 + 4i, 9 + 4i | its estimated position in the estimated robot frame / max_range    |
     | 10 + 4i      | tanh(√trace Σ_ii / 1 m): its marginal uncertainty                   |
 
-    Unknown slots are all zero.
+    Unknown slots are all zero. A negative variance (round-off) reads as 0. A belief
+    outside the bounds (or with a NaN or an infinity) is clipped onto them, NaN read
+    as 0.
     """
 
     def __init__(self, geometry: BeliefGeometry) -> None:
@@ -144,75 +170,40 @@ class EgocentricEncoding:
                 np.tile([1.0, rel, rel, 1.0], m),
             ]
         ).astype(np.float32)
-        self._low, self._high = low, high
-        self._size = low.shape[0]
-        self._rel_bound = float(high[8]) if m else 0.0  # |robot-frame position| bound
-        self._position_bounds = (float(low[0]), float(high[0]), float(low[1]), float(high[1]))
+        self.size = low.shape[0]
         self.space = spaces.Box(low, high, dtype=np.float32)
+        # float64 copies of the float32 bounds, for the kernel.
+        scales = [g.width, g.height, g.max_range, POSITION_STD_SCALE, HEADING_STD_SCALE]
+        self.params = EgocentricParams(
+            np.array(scales, dtype=np.float64), low.astype(np.float64), high.astype(np.float64)
+        )
+
+    def encode_batch(
+        self,
+        belief: BeliefBatch,
+        tail: np.ndarray,
+        out: np.ndarray,
+        clipped: np.ndarray,
+        active: np.ndarray | None = None,
+    ) -> None:
+        """Encode the B beliefs of ``active`` (B,) bool (default all): ``out`` (B, F + T)
+        float32 gets the features, then ``tail`` (B, T) float32 as it is (the raw
+        proximity readings, already inside their own bounds); ``clipped`` (B,) bool."""
+        active = np.ones(belief.x.shape[0], dtype=np.bool_) if active is None else active
+        encode_egocentric(*belief, *self.params, tail, out, clipped, active)
 
     def encode(
         self,
         mean: np.ndarray,
         cov: np.ndarray,
-        state_to_id: np.ndarray,
+        state_to_id: Sequence[int],
         tail: Sequence[float] = (),
     ) -> tuple[np.ndarray, bool]:
-        """Encode the filter's state; returns the observation and whether it clipped.
-
-        ``tail`` (floats) is appended after the features as it is, unclipped (the
-        wrapper's raw proximity readings, already inside their own bounds).
-
-        The features are computed on Python floats, one pass over the known
-        landmarks: for the tens of landmarks of a world, a numpy call (about a
-        microsecond whatever its size) costs more than a landmark's arithmetic.
-        """
-        g = self.geometry
-        ml = mean.tolist()
-        dl = cov.diagonal().tolist()
-        x, y, theta = ml[0], ml[1], ml[2]
-        c, s = math.cos(theta), math.sin(theta)
-        sqrt, tanh = math.sqrt, math.tanh
-        vx, vy, vth = dl[0], dl[1], dl[2]
-        feat = [0.0] * self._size
-        # Variances clamped at 0 by comparisons that let a NaN through (to be caught).
-        feat[:7] = (
-            x / g.width,
-            y / g.height,
-            c,
-            s,
-            tanh(sqrt(0.0 if vx < 0.0 else vx) / POSITION_STD_SCALE),
-            tanh(sqrt(0.0 if vy < 0.0 else vy) / POSITION_STD_SCALE),
-            tanh(sqrt(0.0 if vth < 0.0 else vth) / HEADING_STD_SCALE),
-        )
-        # The robot frame, R(θ)ᵀ (m − t), scaled by the sensor range.
-        ck, sk = c / g.max_range, s / g.max_range
-        bound = self._rel_bound
-        inside = True
-        ids = state_to_id.tolist() if isinstance(state_to_id, np.ndarray) else state_to_id
-        for i, lid in enumerate(ids):
-            row = 3 + 2 * i
-            rx, ry = ml[row] - x, ml[row + 1] - y
-            ex = rx * ck + ry * sk
-            ey = ry * ck - rx * sk
-            trace = dl[row] + dl[row + 1]
-            slot = 7 + 4 * lid
-            feat[slot : slot + 4] = (
-                1.0,
-                ex,
-                ey,
-                tanh(sqrt(0.0 if trace < 0.0 else trace) / POSITION_STD_SCALE),
-            )
-            if not (-bound <= ex <= bound and -bound <= ey <= bound):  # or NaN
-                inside = False
-        # Only a diverged belief leaves the bounds (a NaN or inf poisons the sum).
-        x_low, x_high, y_low, y_high = self._position_bounds
-        if (
-            inside
-            and math.isfinite(sum(feat))
-            and x_low <= feat[0] <= x_high
-            and y_low <= feat[1] <= y_high
-        ):
-            feat += tail
-            return np.array(feat, dtype=np.float32), False
-        out = np.minimum(np.maximum(np.nan_to_num(np.array(feat)), self._low), self._high)
-        return np.concatenate([out, tail]).astype(np.float32), True
+        """Encode one belief in the filter's state order (mean (d,), cov (d, d), the
+        landmark ID of each slot), with ``tail`` (floats) appended as it is; returns
+        the observation and whether it clipped."""
+        tail = np.asarray(tail, dtype=np.float32).reshape(SINGLE, -1)
+        out = np.empty((SINGLE, self.size + tail.shape[1]), dtype=np.float32)
+        clipped = np.empty(SINGLE, dtype=np.bool_)
+        self.encode_batch(single_belief(mean, cov, state_to_id), tail, out, clipped)
+        return out[0], bool(clipped[0])

@@ -1,16 +1,18 @@
 """Frozen, validated configuration for the world, robot, sensors and env.
 
 Every number carries its unit in a comment. Each dataclass checks itself in
-``__post_init__`` and raises ``ValueError``/``TypeError`` naming the bad field.
-``make_config(**overrides)`` turns the flat keyword arguments that ``gym.make``
-passes into an :class:`EnvConfig`; an unknown name is an error, never ignored.
+``__post_init__`` and raises ``ValueError``/``TypeError`` naming the bad field; numpy
+scalars, 0-d arrays and arrays are taken as the Python values they hold (see
+:func:`plain`). ``make_config(**overrides)`` turns the keyword arguments that
+``gym.make`` passes, flat or nested, into an :class:`EnvConfig`; an unknown name is an
+error, never ignored, and so is an option given twice.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import math
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -18,6 +20,31 @@ PRESETS = ("random", "open", "cluttered", "rooms")
 MOTION_MODELS = ("odometry", "velocity")
 MEASUREMENT_MODELS = ("range_bearing", "cartesian")
 ACTION_TYPES = ("continuous", "discrete")
+
+
+def plain(value: Any) -> Any:
+    """The Python form of an option value: a numpy scalar or 0-d array becomes the
+    int, float, bool or str it holds, and an array, list or tuple becomes a tuple of
+    such (configs stay hashable, and options can be swept over numpy arrays). A
+    ``bool`` stays a ``bool``, so it is still refused where a number is expected."""
+    if isinstance(value, (list, tuple)):
+        return tuple(plain(v) for v in value)
+    if hasattr(value, "ndim") and hasattr(value, "tolist"):  # numpy (or alike), no import
+        value = value.tolist()  # Python scalars, or nested lists for an array
+        return plain(value) if isinstance(value, list) else value
+    return value
+
+
+def _plain_fields(obj: Any) -> None:
+    """Replace each field of the frozen dataclass ``obj`` by its :func:`plain` form
+    (nested configs and the ``layout`` stay as they are)."""
+    for f in dataclasses.fields(obj):
+        value = getattr(obj, f.name)
+        if f.name == "layout" or dataclasses.is_dataclass(value):
+            continue
+        converted = plain(value)
+        if converted is not value:
+            object.__setattr__(obj, f.name, converted)
 
 
 def _check_positive(owner: str, **values: float) -> None:
@@ -50,6 +77,18 @@ def _check_int(owner: str, low: int, **values: int) -> None:
             raise ValueError(f"{owner}.{name} must be >= {low}, got {value}")
 
 
+def _check_tuple(owner: str, name: str, value: Any, sizes: tuple[int, ...]) -> None:
+    if not isinstance(value, tuple):
+        raise TypeError(
+            f"{owner}.{name} must be a sequence of {' or '.join(map(str, sizes))} numbers, "
+            f"got {type(value).__name__}"
+        )
+    if len(value) not in sizes:
+        raise ValueError(
+            f"{owner}.{name} must have {' or '.join(map(str, sizes))} entries, got {len(value)}"
+        )
+
+
 def _check_choice(owner: str, name: str, value: str, choices: tuple[str, ...]) -> None:
     if value not in choices:
         raise ValueError(f"{owner}.{name} must be one of {choices}, got {value!r}")
@@ -71,12 +110,12 @@ class WorldConfig:
     wall_thickness: float = 0.1  # m, radius of the wall segments
 
     def __post_init__(self) -> None:
+        _plain_fields(self)
         _check_choice("WorldConfig", "preset", self.preset, PRESETS)
         _check_positive("WorldConfig", width=self.width, height=self.height)
         _check_int("WorldConfig", 1, n_landmarks=self.n_landmarks)
         _check_int("WorldConfig", 0, n_obstacles=self.n_obstacles)
-        if len(self.obstacle_size) != 2:
-            raise ValueError("WorldConfig.obstacle_size must be (min, max)")
+        _check_tuple("WorldConfig", "obstacle_size", self.obstacle_size, (2,))
         lo, hi = self.obstacle_size
         _check_positive("WorldConfig", obstacle_size_min=lo, obstacle_size_max=hi)
         if lo > hi:
@@ -97,6 +136,7 @@ class RobotConfig:
     mass: float = 10.0  # kg
 
     def __post_init__(self) -> None:
+        _plain_fields(self)
         _check_positive(
             "RobotConfig",
             radius=self.radius,
@@ -123,6 +163,7 @@ class SensorConfig:
     bumper: bool = False  # a contact sensor: a "bumper" observation, 1.0 after a blocked step
 
     def __post_init__(self) -> None:
+        _plain_fields(self)
         _check_choice(
             "SensorConfig", "measurement_model", self.measurement_model, MEASUREMENT_MODELS
         )
@@ -169,17 +210,15 @@ class OdometryConfig:
     # (σp [m], σθ [rad], βp [unitless], βθ [unitless])
 
     def __post_init__(self) -> None:
+        _plain_fields(self)
         _check_choice("OdometryConfig", "motion_model", self.motion_model, MOTION_MODELS)
-        if len(self.alphas) != 4:
-            raise ValueError(f"OdometryConfig.alphas must have 4 entries, got {len(self.alphas)}")
-        for i, a in enumerate(self.alphas, start=1):
-            _check_non_negative("OdometryConfig", **{f"alpha{i}": a})
-        if len(self.velocity_noise) != 4:
-            raise ValueError("OdometryConfig.velocity_noise must be (σp, σθ, βp, βθ)")
-        for name, v in zip(
-            ("sigma_p", "sigma_theta", "beta_p", "beta_theta"), self.velocity_noise, strict=True
-        ):
-            _check_non_negative("OdometryConfig", **{name: v})
+        _check_tuple("OdometryConfig", "alphas", self.alphas, (4,))
+        for i, a in enumerate(self.alphas):
+            _check_non_negative("OdometryConfig", **{f"alphas[{i}] (α{i + 1})": a})
+        _check_tuple("OdometryConfig", "velocity_noise", self.velocity_noise, (4,))
+        labels = ("σp", "σθ", "βp", "βθ")
+        for i, (label, v) in enumerate(zip(labels, self.velocity_noise, strict=True)):
+            _check_non_negative("OdometryConfig", **{f"velocity_noise[{i}] ({label})": v})
 
 
 @dataclass(frozen=True)
@@ -191,6 +230,7 @@ class RewardConfig:
     collision_penalty: float = 0.1  # subtracted on a step with a collision
 
     def __post_init__(self) -> None:
+        _plain_fields(self)
         _check_finite(
             "RewardConfig",
             new_landmark_bonus=self.new_landmark_bonus,
@@ -210,17 +250,15 @@ class FaultConfig:
     kidnap_rate: float = 0.0  # the robot is carried to a random free pose
 
     def __post_init__(self) -> None:
+        _plain_fields(self)
         for name in ("outlier_rate", "scan_dropout", "odometry_dropout", "kidnap_rate"):
             value = getattr(self, name)
             _check_finite("FaultConfig", **{name: value})
             if not 0.0 <= value <= 1.0:
                 raise ValueError(f"FaultConfig.{name} must be in [0, 1], got {value}")
         if self.odometry_bias is not None:
-            if len(self.odometry_bias) not in (2, 3):
-                raise ValueError(
-                    "FaultConfig.odometry_bias must have 3 entries (odometry model) or 2 "
-                    f"(velocity model), got {len(self.odometry_bias)}"
-                )
+            # 3 entries for the odometry model, 2 for the velocity model
+            _check_tuple("FaultConfig", "odometry_bias", self.odometry_bias, (3, 2))
             for i, b in enumerate(self.odometry_bias):
                 _check_finite("FaultConfig", **{f"odometry_bias[{i}]": b})
 
@@ -253,6 +291,7 @@ class EnvConfig:
     layout: Any = None  # user world: Layout | dict | path; None uses world.preset
 
     def __post_init__(self) -> None:
+        _plain_fields(self)
         for name, cls in (
             ("world", WorldConfig),
             ("robot", RobotConfig),
@@ -297,28 +336,60 @@ def _flat_option_names() -> dict[str, str]:
     return {name: s[0] for name, s in owners.items() if len(s) == 1}
 
 
-def option_names() -> list[str]:
-    """Every name ``make_config`` accepts, for error messages and docs."""
+def option_names(extra: Iterable[str] = ()) -> list[str]:
+    """Every name ``make_config`` accepts (flat options, the nested sections and the
+    top-level fields), plus ``extra`` (an env's own arguments), sorted."""
     top = [f.name for f in dataclasses.fields(EnvConfig)]
-    return sorted(set(top) | set(_flat_option_names()))
+    return sorted(set(top) | set(_flat_option_names()) | set(extra))
 
 
-def _as_tuple(value: Any) -> Any:
-    # YAML/JSON give lists; the dataclasses hold tuples so they stay hashable.
-    return tuple(value) if isinstance(value, list) else value
+def check_option_names(names: Iterable[str], extra: Iterable[str] = ()) -> None:
+    """``TypeError`` for the first name that is neither an option nor in ``extra``,
+    listing every valid name."""
+    valid = option_names(extra)
+    for name in names:
+        if name not in valid:
+            raise TypeError(f"unknown slam_env option {name!r}; valid options: {', '.join(valid)}")
+
+
+def with_defaults(options: Mapping[str, Any], defaults: Mapping[str, Any]) -> dict[str, Any]:
+    """``options`` with each flat option of ``defaults`` that they do not set, flat or
+    nested (``sensor={...}``), added: an env's own defaults. A whole ``config`` or
+    section object (``sensor=SensorConfig(...)``) is taken as it is, without them."""
+    out = dict(options)
+    if out.get("config") is not None:
+        return out
+    flat = _flat_option_names()
+    for name, value in defaults.items():
+        section = out.get(flat[name])
+        if name in out or (section is not None and not isinstance(section, Mapping)):
+            continue
+        if isinstance(section, Mapping) and name in section:
+            continue
+        out[name] = value
+    return out
 
 
 def make_config(config: EnvConfig | None = None, **overrides: Any) -> EnvConfig:
     """Build an :class:`EnvConfig` from flat overrides such as
     ``make_config(n_landmarks=10, max_range=4.0, dt=0.1)`` or nested ones such as
-    ``make_config(sensor={"fov": 3.14})``. Unknown names raise ``TypeError``."""
+    ``make_config(sensor={"fov": 3.14})``, on top of ``config`` (default: the defaults).
+    Both forms mean the same; an option given in both raises ``ValueError``, an unknown
+    name ``TypeError``."""
     base = config if config is not None else EnvConfig()
     if not isinstance(base, EnvConfig):
         raise TypeError(f"config must be an EnvConfig, got {type(base).__name__}")
+    check_option_names(overrides)
     flat = _flat_option_names()
-    top_fields = {f.name for f in dataclasses.fields(EnvConfig)}
     section_updates: dict[str, dict[str, Any]] = {s: {} for s in _SECTIONS}
     top_updates: dict[str, Any] = {}
+    given: dict[str, str] = {}  # option -> the form it was given in, to refuse a second
+
+    def once(key: str, form: str) -> None:
+        if key in given:
+            raise ValueError(f"option {key!r} given twice, as {given[key]} and as {form}")
+        given[key] = form
+
     for name, value in overrides.items():
         if name in _SECTIONS and isinstance(value, Mapping):
             valid = {f.name for f in dataclasses.fields(_SECTIONS[name])}
@@ -327,17 +398,20 @@ def make_config(config: EnvConfig | None = None, **overrides: Any) -> EnvConfig:
                     raise TypeError(
                         f"unknown {name} option {key!r}; valid: {', '.join(sorted(valid))}"
                     )
-                section_updates[name][key] = _as_tuple(sub)
-        elif name in top_fields:
-            top_updates[name] = value
+                once(key, f"{name}={{{key!r}: {sub!r}}}")
+                section_updates[name][key] = sub
         elif name in flat:
-            section_updates[flat[name]][name] = _as_tuple(value)
-        else:
-            raise TypeError(
-                f"unknown slam_env option {name!r}; valid options: {', '.join(option_names())}"
-            )
+            once(name, f"{name}={value!r}")
+            section_updates[flat[name]][name] = value
+        else:  # a top-level field (check_option_names let nothing else through)
+            top_updates[name] = value
     for section, updates in section_updates.items():
         if updates:
             current = top_updates.get(section, getattr(base, section))
+            if not isinstance(current, _SECTIONS[section]):
+                raise TypeError(
+                    f"{section} must be a mapping or a {_SECTIONS[section].__name__}, "
+                    f"got {type(current).__name__}"
+                )
             top_updates[section] = dataclasses.replace(current, **updates)
     return dataclasses.replace(base, **top_updates) if top_updates else base

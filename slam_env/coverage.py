@@ -15,7 +15,14 @@ from typing import Any, SupportsFloat
 import gymnasium as gym
 import numpy as np
 
+from slam_env.config import SensorConfig
+from slam_env.kernels import coverage as kernels
+from slam_env.kernels.belief_state import SINGLE, filter_belief
+from slam_env.kernels.coverage import CoverageTables, coverage_step
+
 TWO_PI = 2.0 * math.pi
+# m, the side of a coverage cell (the wrapper's default).
+COVERAGE_CELL = 0.5
 
 
 class CoverageGrid:
@@ -29,13 +36,16 @@ class CoverageGrid:
 
     The features are the unswept share of the cells in each of ``sectors`` equal
     sectors around the robot (sector k is centred on bearing 2πk/``sectors`` from the
-    heading, counter-clockwise) and each distance ring (bounded by ``ring_edges``, m,
-    the last ring unbounded), ring-major: feature ``r·sectors + k``. A region that
-    holds no arena cell has share 0: nothing left to see there.
+    heading, counter-clockwise, from −π/``sectors`` inclusive to +π/``sectors``
+    exclusive about its centre) and each distance ring (bounded by ``ring_edges``, m,
+    each edge inclusive in the ring outside it, the last ring unbounded), measured
+    like the footprint; ring-major: feature ``r·sectors + k``. The robot's own cell,
+    which has no bearing of its own, counts at bearing 0 of the world frame. A region
+    that holds no arena cell has share 0: nothing left to see there.
 
-    Footprints and region maps are tabulated per heading bin once, so that a step
-    costs a few array operations on the grid (one count of its cells per region and
-    swept state).
+    Footprints and region maps are tabulated per heading bin once (:attr:`tables`,
+    shared by any number of worlds); a step is one call to the coverage kernels
+    (:mod:`slam_env.kernels.coverage`) on this grid as a batch of one.
 
     Args:
         width, height: m, the arena.
@@ -45,6 +55,8 @@ class CoverageGrid:
         sectors: sectors around the robot.
         ring_edges: m, increasing inner edges of the rings after the first.
         heading_bins: directions the heading is rounded to.
+        worlds: how many grids of this geometry to keep (the sub-envs of a vector env,
+            :meth:`step_all`); the methods that take one pose act on world 0.
     """
 
     def __init__(
@@ -58,6 +70,7 @@ class CoverageGrid:
         sectors: int = 8,
         ring_edges: tuple[float, ...] = (5.0, 10.0),
         heading_bins: int = 72,
+        worlds: int = SINGLE,
     ) -> None:
         for name, value in (("width", width), ("height", height), ("cell", cell)):
             if not (math.isfinite(value) and value > 0.0):
@@ -66,7 +79,11 @@ class CoverageGrid:
             raise ValueError(f"CoverageGrid sweep_range must be finite and >= 0, got {sweep_range}")
         if not 0.0 < fov <= TWO_PI:
             raise ValueError(f"CoverageGrid fov must be in (0, 2π], got {fov}")
-        for name, value in (("sectors", sectors), ("heading_bins", heading_bins)):
+        for name, value in (
+            ("sectors", sectors),
+            ("heading_bins", heading_bins),
+            ("worlds", worlds),
+        ):
             if isinstance(value, bool) or not isinstance(value, int) or value < 1:
                 raise ValueError(f"CoverageGrid {name} must be an int >= 1, got {value!r}")
         edges = np.asarray(ring_edges, dtype=np.float64)
@@ -91,17 +108,14 @@ class CoverageGrid:
         sector = np.minimum((turned * (sectors / TWO_PI)).astype(np.intp), sectors - 1)
         ring = np.searchsorted(edges, dist, side="right")
         # Coded 2·region + 1, so that less the swept flag (0/1) each (region, swept) pair
-        # has a code, the unswept cells' odd: one bincount counts both.
-        self._n_codes = 2 * self.n_features
+        # has a code, the unswept cells' odd: one pass counts both.
         codes = 2 * (ring * sectors + sector) + 1
-        self._codes = codes.astype(np.min_scalar_type(self._n_codes - 1))
+        codes = codes.astype(np.min_scalar_type(codes.max()))
 
         # The swept cells live inside a border of always-swept cells as wide as the
         # footprint, so a footprint never needs clipping and never counts the border.
-        self._pad = math.ceil(sweep_range / self.cell)
-        p = self._pad
-        self._stride = self.nx + 2 * p
-        self._padded = np.ones((self.ny + 2 * p, self._stride), dtype=bool)
+        p = math.ceil(sweep_range / self.cell)
+        stride = self.nx + 2 * p
         # The footprint per heading bin, as offsets into the flattened padded grid.
         near = dist <= sweep_range
         foot_di = np.broadcast_to(di, dist.shape)[near]
@@ -110,23 +124,56 @@ class CoverageGrid:
         # The robot's own cell is always seen, whatever its offset's nominal bearing.
         in_view = (np.abs(off) <= 0.5 * fov) | ((foot_di == 0) & (foot_dj == 0))[None]
         # Measured from the corner of the footprint's (2p+1)² window rather than from the
-        # robot's cell, so that they index a flat view of the padded grid that starts at
-        # that corner: offsets never negative, no per-step index arithmetic.
-        flat = (foot_di + p) * self._stride + foot_dj + p
-        self._footprints = [flat[row] for row in in_view]
+        # robot's cell, so that they are never negative.
+        flat = (foot_di + p) * stride + foot_dj + p
+        sizes = np.count_nonzero(in_view, axis=1)
+        footprints = np.zeros((heading_bins, max(int(sizes.max()), 1)), dtype=np.int64)
+        for h, row in enumerate(in_view):
+            footprints[h, : sizes[h]] = flat[row]
+        self.tables = CoverageTables(
+            self.cell, heading_bins, p, footprints, sizes.astype(np.int64), codes
+        )
+        # The grids of the worlds, as the coverage kernels take them.
+        self._padded = np.ones((worlds, self.ny + 2 * p, stride), dtype=np.bool_)
+        self._n_swept = np.zeros(worlds, dtype=np.int64)
         self._setup_scratch()
         self.reset()
 
+    @classmethod
+    def for_sensor(
+        cls,
+        width: float,
+        height: float,
+        sensor: SensorConfig,
+        *,
+        cell: float = COVERAGE_CELL,
+        worlds: int = SINGLE,
+    ) -> CoverageGrid:
+        """The grid a landmark sensor sweeps (see :class:`CoverageWrapper`): its FOV,
+        and its range less one cell, so that a cell counts as swept only well inside
+        it; rings at R and 2R, R the range."""
+        reach = sensor.max_range
+        return cls(
+            width,
+            height,
+            sweep_range=max(reach - cell, 0.0),
+            fov=sensor.fov,
+            cell=cell,
+            ring_edges=(reach, 2.0 * reach),
+            worlds=worlds,
+        )
+
     # Views and scratch buffers: rebuilt on unpickling, never pickled (a view
     # would come back as a copy, detached from the padded grid).
-    _TRANSIENT = ("_flat", "_swept_u8", "_buf", "_buf_flat", "_out")
+    _TRANSIENT = ("_flat", "_pose", "new_cells", "_all", "_out")
 
     def _setup_scratch(self) -> None:
-        self._flat = self._padded.reshape(-1)  # a view: the padded grid is contiguous
-        self._swept_u8 = self.swept.view(np.uint8)  # bool's bytes are 0/1
-        self._buf = np.empty((self.ny, self.nx), dtype=np.intp)  # the codes, bincount's input
-        self._buf_flat = self._buf.reshape(-1)
-        self._out = np.empty(1 + self.n_features)  # [swept fraction, features...]
+        worlds = self._padded.shape[0]
+        self._flat = self._padded.reshape(worlds, -1)  # a view: the padded grid is contiguous
+        self._pose = np.zeros((worlds, 3))  # world 0's pose, for the one-pose methods
+        self.new_cells = np.empty(worlds, dtype=np.int64)
+        self._all = np.ones(worlds, dtype=np.bool_)
+        self._out = np.empty((worlds, 1 + self.n_features))  # [swept fraction, features...]
 
     def __getstate__(self) -> dict[str, Any]:
         return {k: v for k, v in self.__dict__.items() if k not in self._TRANSIENT}
@@ -139,8 +186,8 @@ class CoverageGrid:
     def swept(self) -> np.ndarray:
         """(ny, nx) bool, row i at y ∈ [i·cell, (i+1)·cell): the cells swept so far
         (a view; a property, so that a pickled copy views its own padded grid)."""
-        p = self._pad
-        return self._padded[p : p + self.ny, p : p + self.nx]
+        p = self.tables.pad
+        return self._padded[0, p : p + self.ny, p : p + self.nx]
 
     @property
     def size(self) -> int:
@@ -149,67 +196,66 @@ class CoverageGrid:
 
     @property
     def swept_fraction(self) -> float:
-        """Share of the arena's cells swept so far."""
+        """Share of the arena's cells swept so far (world 0)."""
+        return self._n_swept[0].item() / self.size
+
+    def swept_fractions(self) -> np.ndarray:
+        """(worlds,) float64: each world's share of the arena swept so far."""
         return self._n_swept / self.size
 
-    def reset(self) -> None:
-        """Forget everything swept."""
-        self.swept[:] = False
-        self._n_swept = 0
+    def reset(self, index: int = 0) -> None:
+        """Forget everything world ``index`` swept."""
+        p = self.tables.pad
+        self._padded[index, p : p + self.ny, p : p + self.nx] = False
+        self._n_swept[index] = 0
 
     def cell_of(self, x: float, y: float) -> tuple[int, int]:
         """(row, column) of the cell holding (x, y), clamped into the grid (a diverged
-        estimate outside the arena sweeps from the nearest border cell)."""
-        return self._locate(x, y, 0.0)[:2]
+        estimate outside the arena sweeps from the nearest border cell, a NaN one from
+        the first)."""
+        return kernels.cell_of(self.tables.cell, self.tables.codes, x, y)
 
     def heading_bin(self, theta: float) -> int:
-        """The tabulated direction nearest to ``theta``."""
-        return self._locate(0.0, 0.0, theta)[2]
-
-    def _locate(self, x: float, y: float, theta: float) -> tuple[int, int, int]:
-        """:meth:`cell_of` and :meth:`heading_bin` at once (one call per step)."""
-        i = math.floor(y / self.cell) if math.isfinite(y) else 0
-        j = math.floor(x / self.cell) if math.isfinite(x) else 0
-        n = self.heading_bins
-        b = round(theta % TWO_PI * (n / TWO_PI)) % n if math.isfinite(theta) else 0
-        return min(max(i, 0), self.ny - 1), min(max(j, 0), self.nx - 1), b
+        """The tabulated direction nearest to ``theta`` (bin 0 for NaN or ±inf)."""
+        return kernels.heading_bin(self.heading_bins, theta)
 
     def sweep(self, x: float, y: float, theta: float) -> int:
         """Mark the footprint seen from pose (x, y, θ) swept; return the new cells."""
-        return self._sweep_at(*self._locate(x, y, theta))
-
-    def _sweep_at(self, i: int, j: int, b: int) -> int:
-        cells = self._footprints[b]
-        # The flat padded grid from the corner of the footprint's window, at padded
-        # (row, column) (i + p - p, j + p - p).
-        window = self._flat[i * self._stride + j :]
-        new = cells.size - int(np.count_nonzero(window.take(cells)))
-        window.put(cells, True)
-        self._n_swept += new
-        return new
+        self._pose[0] = (x, y, theta)
+        self._step(self._pose, True)
+        return self.new_cells[0].item()
 
     def features(self, x: float, y: float, theta: float) -> np.ndarray:
         """(n_features,) float64 in [0, 1]: the unswept share per sector and ring
         around pose (x, y, θ) (see the class docstring)."""
-        return self._coverage_at(*self._locate(x, y, theta))[1:].copy()
+        self._pose[0] = (x, y, theta)
+        return self.coverage(self._pose)[1:].copy()
 
-    def _coverage_at(self, i: int, j: int, b: int) -> np.ndarray:
-        """(1 + n_features,) float64: the swept fraction, then the features at cell
-        (i, j), heading bin b. A view of scratch that the next call overwrites."""
-        ny, nx = self.ny, self.nx
-        np.subtract(
-            self._codes[b, ny - 1 - i : 2 * ny - 1 - i, nx - 1 - j : 2 * nx - 1 - j],
-            self._swept_u8,
-            out=self._buf,
+    def coverage(self, pose: np.ndarray) -> np.ndarray:
+        """(1 + n_features,) float64: the swept fraction, then the features around
+        ``pose`` ((1, ≥ 3) float64, x, y, θ first) of a one-world grid. A view of
+        scratch that the next call overwrites."""
+        return self._step(pose, False)[0]
+
+    def sweep_and_cover(self, pose: np.ndarray) -> np.ndarray:
+        """:meth:`sweep` from ``pose`` ((1, ≥ 3) float64, x, y, θ first), then
+        :meth:`coverage` there, in one kernel call, for a one-world grid."""
+        return self._step(pose, True)[0]
+
+    def step_all(self, poses: np.ndarray, active: np.ndarray) -> np.ndarray:
+        """Each active world's (``active`` (worlds,) bool) sweep from its pose (``poses``
+        (worlds, ≥ 3) float64, x, y, θ first), then its coverage there:
+        (worlds, 1 + n_features) float64, a view of scratch that the next call
+        overwrites (the inactive worlds' rows stale); :attr:`new_cells` the cells each
+        swept."""
+        return self._step(poses, True, active)
+
+    def _step(self, poses: np.ndarray, sweep: bool, active: np.ndarray | None = None) -> np.ndarray:
+        active = self._all if active is None else active
+        coverage_step(
+            *self.tables, self._flat, self._n_swept, poses, sweep, self.new_cells, self._out, active
         )
-        counts = np.bincount(self._buf_flat, minlength=self._n_codes)
-        unswept = counts[1::2]
-        total = counts[0::2] + unswept
-        np.maximum(total, 1, out=total)
-        out = self._out
-        out[0] = self._n_swept / (nx * ny)
-        np.divide(unswept, total, out=out[1:])  # as ever: the shares are bit-identical
-        return out
+        return self._out
 
 
 class CoverageWrapper(gym.ObservationWrapper):
@@ -231,7 +277,7 @@ class CoverageWrapper(gym.ObservationWrapper):
         cell: m, the grid's cell side.
     """
 
-    def __init__(self, env: gym.Env, cell: float = 0.5) -> None:
+    def __init__(self, env: gym.Env, cell: float = COVERAGE_CELL) -> None:
         super().__init__(env)
         try:
             self._filter = env.get_wrapper_attr("filter")
@@ -240,14 +286,7 @@ class CoverageWrapper(gym.ObservationWrapper):
         base = env.unwrapped
         sensor = base.config.sensor
         width, height = base.arena_size
-        self.grid = CoverageGrid(
-            width,
-            height,
-            sweep_range=max(sensor.max_range - cell, 0.0),
-            fov=sensor.fov,
-            cell=cell,
-            ring_edges=(sensor.max_range, 2.0 * sensor.max_range),
-        )
+        self.grid = CoverageGrid.for_sensor(width, height, sensor, cell=cell)
         n = 1 + self.grid.n_features
         space = gym.spaces.Box(0.0, 1.0, (n,), np.float32)
         inner = env.observation_space
@@ -276,25 +315,20 @@ class CoverageWrapper(gym.ObservationWrapper):
 
     def observation(self, observation: Any) -> Any:
         """``observation`` with the current coverage features (no sweep)."""
-        grid = self.grid
-        return self._attach(observation, grid._coverage_at(*grid._locate(*self._pose())))
+        return self._attach(observation, self.grid.coverage(self._pose()))
 
     def _observe(self, obs: Any, info: dict[str, Any]) -> tuple[Any, dict[str, Any]]:
-        grid = self.grid
-        i, j, b = grid._locate(*self._pose())
-        grid._sweep_at(i, j, b)
-        info["swept_fraction"] = grid.swept_fraction
-        return self._attach(obs, grid._coverage_at(i, j, b)), info
+        coverage = self.grid.sweep_and_cover(self._pose())
+        info["swept_fraction"] = self.grid.swept_fraction
+        return self._attach(obs, coverage), info
 
-    def _pose(self) -> list[float]:
-        # The pose alone: the filter's mean would copy the whole state.
-        return self._filter.pose.tolist()
+    def _pose(self) -> np.ndarray:
+        """The filter's mean (1, dmax), the pose first: a view of its belief."""
+        return filter_belief(self._filter).x
 
     @staticmethod
     def _attach(obs: Any, coverage: np.ndarray) -> Any:
         """``obs`` with the float64 ``coverage`` features rounded to float32."""
         if isinstance(obs, dict):
             return {**obs, "coverage": coverage.astype(np.float32)}
-        if isinstance(obs, np.ndarray) and obs.dtype == np.float32:
-            return np.concatenate((obs, coverage), dtype=np.float32)  # rounds on the way
-        return np.concatenate([obs, coverage.astype(np.float32)])
+        return np.concatenate((obs, coverage), dtype=np.float32)  # rounds on the way

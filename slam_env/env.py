@@ -2,19 +2,20 @@
 
 from __future__ import annotations
 
-from typing import Any, SupportsFloat
+from typing import Any
 
-import gymnasium as gym
 import numpy as np
-from gymnasium import spaces
-from gymnasium.error import ResetNeeded
 
-from slam_env.actions import DISCRETE_PRIMITIVES, parse_action
-from slam_env.config import EnvConfig, make_config
-from slam_env.layouts import Layout
+from slam_env.budget import check_budget, world_size
+from slam_env.config import EnvConfig, check_option_names, make_config
 from slam_env.raw_core import RawCore
 from slam_env.sensors import LandmarkSensor, OdometrySensor
-from slam_env.world import World
+from slam_env.single_env import CoreEnv, check_reset_options
+
+__all__ = ["ENV_ARGUMENTS", "LandmarksEnv", "check_reset_options", "unpack_detections"]
+
+# The env's own arguments besides the config options (for the list of valid names).
+ENV_ARGUMENTS = ("config", "render_mode")
 
 
 def unpack_detections(obs: dict[str, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
@@ -29,7 +30,7 @@ def unpack_detections(obs: dict[str, np.ndarray]) -> tuple[np.ndarray, np.ndarra
     return z, obs["ids"][valid].astype(np.int64)
 
 
-class LandmarksEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
+class LandmarksEnv(CoreEnv):
     """A 2D robot among point landmarks and obstacles, sensing landmarks by ID.
 
     ## Description
@@ -96,149 +97,34 @@ class LandmarksEnv(gym.Env[dict[str, np.ndarray], np.ndarray]):
     ``config`` an :class:`EnvConfig`; ``options`` flat overrides of any of its fields
     (``n_landmarks=10``, ``max_range=4.0``, ``motion_model``…, see
     :func:`slam_env.config.make_config`), or a user world as ``layout=`` (a
-    :class:`Layout`, a dict, or a JSON/YAML path). Unknown options raise ``TypeError``.
+    :class:`Layout`, a dict, or a JSON/YAML path). Flat and nested forms mean the same;
+    an option given in both raises ``ValueError``, an unknown one ``TypeError``; numpy
+    scalars are taken as the Python values they hold. Every option that scales work or
+    memory is checked against :mod:`slam_env.budget` before anything is built.
+    ``reset`` takes no options. ``close`` releases the renderer; the env stays usable
+    (``step``, ``reset``, and ``render``, which reopens its window), as Gymnasium's are.
     """
-
-    metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 10}
 
     def __init__(
         self, render_mode: str | None = None, config: EnvConfig | None = None, **options: Any
     ) -> None:
-        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
-            raise ValueError(
-                f"render_mode must be one of {self.metadata['render_modes']} or None, "
-                f"got {render_mode!r}"
-            )
-        self.render_mode = render_mode
-        self.config = make_config(config, **options)
+        check_option_names(options, ENV_ARGUMENTS)
+        config = make_config(config, **options)
+        # Everything that scales work or memory, before any of it is built.
+        check_budget(config, world_size(config))
         # A batch of one: the native vector env runs the same core for B sub-envs.
-        self._core = RawCore(self.config, 1)
-        core = self._core
-        self.n_landmarks = core.n_landmarks
-        self.n_landmark_slots = core.n_slots
-        self.arena_size = core.arena_size
-        self.max_detections = core.max_detections
+        self._setup(RawCore(config, 1), render_mode)
         # The sensor models on their own, for users who sense this world themselves.
-        self.sensor = LandmarkSensor(self.config.sensor)
-        self.odometry = OdometrySensor(self.config.odometry)
-        self._max_speed = self.config.robot.max_speed  # m/s at action 1.0
-        self._max_turn_rate = self.config.robot.max_turn_rate  # rad/s at action 1.0
-        if self.config.action_type == "continuous":
-            self.action_space = spaces.Box(-1.0, 1.0, shape=(2,), dtype=np.float32)
-        else:
-            self.action_space = spaces.Discrete(len(DISCRETE_PRIMITIVES))
-        self.observation_space = core.observation_space
-        self._active = np.ones(1, dtype=bool)
-        self._started = False
-        self._renderer = None
-        self._closed = False
-        self._trail: list[tuple[float, float]] = []
-        self._steps = 0  # since the reset, for the picture
+        self.sensor = LandmarkSensor(config.sensor)
+        self.odometry = OdometrySensor(config.odometry)
         # Drawn over the world by render(); the EKF-SLAM wrapper sets it.
         self.belief_overlay = None
 
-    # ------------------------------------------------------------------ API
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
     ) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
-        super().reset(seed=seed)
-        if self._closed:
-            raise RuntimeError("reset() called on a closed LandmarksEnv; make a new env")
-        if options:
-            raise ValueError(f"LandmarksEnv.reset takes no options, got {sorted(options)}")
-        core = self._core
-        layout = core.reset(0, self.np_random)
-        self._started = True
         self.belief_overlay = None
-        pose = core.worlds.poses[0]
-        self._trail = [(float(pose[0]), float(pose[1]))]
-        self._steps = 0
-        if self._renderer is not None:
-            self._renderer.set_layout(layout)
-        obs, info = core.observation(0), core.info(0)
-        if self.render_mode == "human":
-            self.render()
-        return obs, info
+        return super().reset(seed=seed, options=options)
 
-    def step(
-        self, action: Any
-    ) -> tuple[dict[str, np.ndarray], SupportsFloat, bool, bool, dict[str, Any]]:
-        if self._closed:
-            raise RuntimeError("step() called on a closed LandmarksEnv; make a new env")
-        if not self._started:
-            raise ResetNeeded("call reset() before step()")
-        speed_frac, turn_frac = parse_action(action, self.action_space)
-        core = self._core
-        core.rngs[0] = self.np_random  # whoever set env.np_random since the reset
-        core.step([speed_frac * self._max_speed], [turn_frac * self._max_turn_rate], self._active)
-        self._steps += 1
-        if self.render_mode is not None:
-            pose = core.worlds.poses[0]
-            self._trail.append((float(pose[0]), float(pose[1])))
-        obs, info = core.observation(0), core.info(0)
-        reward = float(core.out.rewards[0])
-        terminated = bool(core.terminated[0])
-        if self.render_mode == "human":
-            self.render()
-        return obs, reward, terminated, False, info
-
-    def render(self) -> np.ndarray | None:
-        if self.render_mode is None:
-            gym.logger.warn(
-                "render() called without a render_mode; pass render_mode='rgb_array' or "
-                "'human' to gym.make"
-            )
-            return None
-        if not self._started:
-            raise ResetNeeded("call reset() before render()")
-        return self._get_renderer().render(self.render_frame())
-
-    def close(self) -> None:
-        if self._renderer is not None:
-            self._renderer.close()
-            self._renderer = None
-        self._closed = True
-
-    # ------------------------------------------------------------------ helpers
-    @property
-    def world(self) -> World:
-        """The pymunk world of the current episode (after ``reset``)."""
-        if not self._started:
-            raise ResetNeeded("call reset() before accessing the world")
-        return self._core.worlds.worlds[0]
-
-    @property
-    def layout(self) -> Layout:
-        return self.world.layout
-
-    def render_frame(self):
-        """The plain-data :class:`slam_env.rendering.Frame` of the current state, with
-        the sensor's visible region traced in the world."""
-        from slam_env.visibility import visible_region
-
-        frame = self._core.frame(0, self._trail, self.belief_overlay)
-        sensor = self.config.sensor
-        frame.visible_region = visible_region(self.world, frame.pose, sensor.max_range, sensor.fov)
-        frame.step = self._steps
-        return frame
-
-    def _get_renderer(self):
-        if self._renderer is None:
-            from slam_env.rendering import Renderer
-
-            cfg = self.config
-            self._renderer = Renderer(
-                self.world.layout,
-                robot_radius=cfg.robot.radius,
-                max_range=cfg.sensor.max_range,
-                fov=cfg.sensor.fov,
-                render_mode=self.render_mode,
-                render_fps=self.metadata["render_fps"],
-            )
-        return self._renderer
-
-    # Pickling: the renderer (a pygame window) stays behind; it is rebuilt on demand.
-    def __getstate__(self) -> dict[str, Any]:
-        state = self.__dict__.copy()
-        state["_renderer"] = None
-        return state
+    def _overlay(self) -> Any:
+        return self.belief_overlay

@@ -119,12 +119,16 @@ def _polygon_problem(poly: Sequence[Point]) -> str | None:
     n = len(poly)
     if n < 3:
         return f"is degenerate: it has {n} vertices, needs at least 3"
-    scale = max(max(abs(x), abs(y)) for x, y in poly) or 1.0
+    # Tolerances relative to the polygon's own size, measured from its first vertex: its
+    # position (far from the origin in a large arena) must not make it look degenerate.
+    ox, oy = poly[0]
+    local = [(x - ox, y - oy) for x, y in poly]
+    scale = max(max(abs(x), abs(y)) for x, y in local) or 1.0
     for i in range(n):
-        (x0, y0), (x1, y1) = poly[i], poly[(i + 1) % n]
+        (x0, y0), (x1, y1) = local[i], local[(i + 1) % n]
         if math.hypot(x1 - x0, y1 - y0) <= _EPS * scale:
             return f"is degenerate: vertex {i} repeats vertex {(i + 1) % n}"
-    area = _signed_area(poly)
+    area = _signed_area(local)
     if abs(area) <= _EPS * scale * scale:
         return "is degenerate: it has zero area"
     sign = 1.0 if area > 0 else -1.0
@@ -589,7 +593,10 @@ def layout_to_dict(layout: Layout) -> dict[str, Any]:
 
 def load_layout(source: Layout | Mapping[str, Any] | str | os.PathLike[str]) -> Layout:
     """A :class:`Layout` from a Layout (returned as is), a dict (the schema of
-    :func:`layout_from_dict`) or a ``.json``/``.yaml``/``.yml`` file path."""
+    :func:`layout_from_dict`) or a ``.json``/``.yaml``/``.yml`` file path. A file that
+    cannot be read or parsed raises ``ValueError`` naming it (and the line, when the
+    parser knows it); so does a problem with its content (``TypeError`` for a value of
+    the wrong type)."""
     if isinstance(source, Layout):
         return source
     if isinstance(source, Mapping):
@@ -599,20 +606,41 @@ def load_layout(source: Layout | Mapping[str, Any] | str | os.PathLike[str]) -> 
             f"a layout must be a Layout, a dict or a file path, got {type(source).__name__}"
         )
     path = Path(source)
-    suffix = path.suffix.lower()
-    if suffix == ".json":
-        with path.open(encoding="utf-8") as fh:
-            data = json.load(fh)
-    elif suffix in (".yaml", ".yml"):
-        import yaml
-
-        with path.open(encoding="utf-8") as fh:
-            data = yaml.safe_load(fh)
-    else:
-        raise ValueError(f"layout file {str(path)!r} must end in .json, .yaml or .yml")
+    name = repr(str(path))
+    if path.suffix.lower() not in (".json", ".yaml", ".yml"):
+        raise ValueError(f"layout file {name} must end in .json, .yaml or .yml")
+    try:
+        text = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        reason = exc.strerror if isinstance(exc, OSError) and exc.strerror else str(exc)
+        raise ValueError(f"layout file {name} cannot be read: {reason}") from exc
+    data = _parse_layout_text(text, path.suffix.lower(), name)
     if not isinstance(data, Mapping):
-        raise TypeError(f"layout file {str(path)!r} must hold a mapping, got {type(data).__name__}")
-    return layout_from_dict(data)
+        raise TypeError(f"layout file {name} must hold a mapping, got {type(data).__name__}")
+    try:
+        return layout_from_dict(data)
+    except (TypeError, ValueError) as exc:
+        raise type(exc)(f"layout file {name}: {exc}") from exc
+
+
+def _parse_layout_text(text: str, suffix: str, name: str) -> Any:
+    """The data of a layout file's text; ``ValueError`` naming the file and the line."""
+    if suffix == ".json":
+        try:
+            return json.loads(text)
+        except json.JSONDecodeError as exc:
+            raise ValueError(
+                f"layout file {name}, line {exc.lineno}: not valid JSON: {exc.msg}"
+            ) from exc
+    import yaml
+
+    try:
+        return yaml.safe_load(text)
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        where = f", line {mark.line + 1}" if mark is not None else ""
+        problem = getattr(exc, "problem", None) or str(exc)
+        raise ValueError(f"layout file {name}{where}: not valid YAML: {problem}") from exc
 
 
 # --------------------------------------------------------------------------- generators
@@ -661,12 +689,27 @@ def _landmark_problem(
     return None
 
 
-def _landmark_spacing(cfg: WorldConfig) -> float:
+def landmark_spacing(cfg: WorldConfig | None) -> float:
+    """The least distance (m) between two landmarks: ``cfg.landmark_spacing`` in a
+    generated world, the posts' diameter in any (``cfg`` None: a user's layout)."""
+    if cfg is None:
+        return 2.0 * LANDMARK_POST_RADIUS
     return max(cfg.landmark_spacing, 2.0 * LANDMARK_POST_RADIUS)
 
 
 def _landmark_need(cfg: WorldConfig) -> float:
     return max(cfg.clearance, LANDMARK_POST_RADIUS)
+
+
+def landmark_capacity(cfg: WorldConfig) -> int:
+    """An upper bound on the landmarks a generated world of ``cfg`` can hold: their
+    centres lie in the arena less the clearance on each side, at least the spacing
+    apart, and Oler's inequality bounds such a set in a W' × H' rectangle by
+    (2/√3)·W'H'/s² + (W' + H')/s + 1 points. Asking for more cannot succeed."""
+    need, spacing = _landmark_need(cfg), landmark_spacing(cfg)
+    w = max(cfg.width - 2.0 * need, 0.0) / spacing
+    h = max(cfg.height - 2.0 * need, 0.0) / spacing
+    return math.floor(2.0 / math.sqrt(3.0) * w * h + w + h + 1.0)
 
 
 def random_layout(cfg: WorldConfig, robot_radius: float, rng: np.random.Generator) -> Layout:
@@ -694,8 +737,10 @@ def random_layout(cfg: WorldConfig, robot_radius: float, rng: np.random.Generato
     if cfg.n_obstacles:
         if lo + 2.0 * gap > min(W, H):
             raise ValueError(
-                f"obstacle_size min {lo:g} m plus a {gap:.3g} m passage on each side does "
-                f"not fit in the {W:g} × {H:g} m arena"
+                f"obstacle_size min {lo:g} m plus a {gap:.3g} m passage (2·radius + "
+                f"{PASSAGE_MARGIN:g} m) on each side does not fit in the {W:g} × {H:g} m "
+                "arena (width × height); lower obstacle_size or radius, enlarge the arena, "
+                "or set n_obstacles=0"
             )
         for k in range(cfg.n_obstacles):
             for _ in range(MAX_OBSTACLE_TRIES):
@@ -713,15 +758,19 @@ def random_layout(cfg: WorldConfig, robot_radius: float, rng: np.random.Generato
                 raise ValueError(
                     f"could not place obstacle {k + 1} of n_obstacles={cfg.n_obstacles} in "
                     f"{MAX_OBSTACLE_TRIES} tries: obstacles of {lo:g}–{hi:g} m need "
-                    f"{gap:.3g} m passages between them and the walls; lower n_obstacles "
-                    f"or obstacle_size, or enlarge the arena"
+                    f"{gap:.3g} m passages (2·radius + {PASSAGE_MARGIN:g} m) between them "
+                    "and the walls; lower n_obstacles, obstacle_size or radius, or enlarge "
+                    "the arena (width, height)"
                 )
     obstacles = tuple(_box(*b) for b in boxes)
 
     # Start pose.
     rs = r + START_MARGIN
     if 2.0 * rs > min(W, H):
-        raise ValueError(f"the {W:g} × {H:g} m arena is too small for the robot")
+        raise ValueError(
+            f"the {W:g} × {H:g} m arena (width × height) is too small for the robot "
+            f"(radius {r:g} m)"
+        )
     for _ in range(MAX_START_TRIES):
         u = rng.random(3)
         sx, sy = rs + (W - 2.0 * rs) * u[0], rs + (H - 2.0 * rs) * u[1]
@@ -731,15 +780,17 @@ def random_layout(cfg: WorldConfig, robot_radius: float, rng: np.random.Generato
     else:
         raise ValueError(
             f"could not find a collision-free start pose in {MAX_START_TRIES} tries: "
-            "the obstacles cover the arena; lower n_obstacles or obstacle_size"
+            "the obstacles cover the arena; lower n_obstacles or obstacle_size, or enlarge "
+            "the arena (width, height)"
         )
 
     # Landmarks.
     need = _landmark_need(cfg)
-    spacing = _landmark_spacing(cfg)
+    spacing = landmark_spacing(cfg)
     if 2.0 * need >= min(W, H):
         raise ValueError(
-            f"clearance {need:g} m leaves no room for landmarks in the {W:g} × {H:g} m arena"
+            f"clearance {need:g} m leaves no room for landmarks in the {W:g} × {H:g} m "
+            "arena (width × height)"
         )
     keep_out = ((start[0], start[1], r + LANDMARK_POST_RADIUS + START_MARGIN),)
     placed: list[Point] = []
@@ -758,12 +809,13 @@ def random_layout(cfg: WorldConfig, robot_radius: float, rng: np.random.Generato
             detail = {
                 "landmark_spacing": f"landmark_spacing={cfg.landmark_spacing:g} m",
                 "clearance": f"clearance={cfg.clearance:g} m from walls and obstacles",
-                "start": "the keep-out zone around the start pose",
+                "start": "the keep-out zone around the start pose (radius + "
+                f"{LANDMARK_POST_RADIUS + START_MARGIN:g} m)",
             }[worst]
             raise ValueError(
                 f"could not place landmark {k + 1} of n_landmarks={cfg.n_landmarks} in "
                 f"{MAX_LANDMARK_TRIES} tries, mostly rejected by {detail}; lower "
-                f"n_landmarks or landmark_spacing, or enlarge the arena"
+                f"n_landmarks or landmark_spacing, or enlarge the arena (width, height)"
             )
     layout = Layout(
         width=W,
@@ -811,7 +863,10 @@ def _choose_start(
     for x, y in cands:
         if probe.is_free(x, y, robot_radius, wall_thickness=wall_thickness, margin=START_MARGIN):
             return (float(x), float(y), 0.0)
-    raise ValueError(f"preset {probe.name!r}: no collision-free start pose in the arena")
+    raise ValueError(
+        f"preset {probe.name!r}: no collision-free start pose for the robot (radius "
+        f"{robot_radius:g} m) in the {W:g} × {H:g} m arena (width × height)"
+    )
 
 
 def _halton_landmarks(
@@ -824,7 +879,7 @@ def _halton_landmarks(
     """``cfg.n_landmarks`` points of the Halton(2, 3) sequence that satisfy the clearance,
     spacing and keep-out constraints (deterministic, evenly spread)."""
     W, H = cfg.width, cfg.height
-    need, spacing = _landmark_need(cfg), _landmark_spacing(cfg)
+    need, spacing = _landmark_need(cfg), landmark_spacing(cfg)
     placed: list[Point] = []
     rejected = {"clearance": 0, "landmark_spacing": 0, "start": 0}
     for i in range(1, 200 * cfg.n_landmarks + 1000):
@@ -861,7 +916,7 @@ def _open_preset(cfg: WorldConfig, robot_radius: float) -> Layout:
         x = (col + 0.5) * cw + 0.25 * cw * _frac(k, 0)
         y = (row + 0.5) * ch + 0.25 * ch * _frac(k, 1)
         pts.append((min(max(x, need), W - need), min(max(y, need), H - need)))
-    spacing = _landmark_spacing(cfg)
+    spacing = landmark_spacing(cfg)
     for i in range(n):
         for j in range(i):
             if math.dist(pts[i], pts[j]) < spacing:
@@ -894,8 +949,9 @@ def _cluttered_preset(cfg: WorldConfig, robot_radius: float) -> Layout:
         ny = math.floor(inner_h / (lo + gap))
     if nx < 1 or ny < 1:
         raise ValueError(
-            f"preset 'cluttered': the {W:g} × {H:g} m arena is too small for obstacles of "
-            f"{lo:g} m with {gap:.3g} m passages"
+            f"preset 'cluttered': the {W:g} × {H:g} m arena (width × height) is too small "
+            f"for obstacles of {lo:g} m (obstacle_size) with {gap:.3g} m passages (2·radius "
+            f"+ {PASSAGE_MARGIN:g} m)"
         )
     cw, ch = inner_w / nx, inner_h / ny
     boxes: list[tuple[float, float, float, float]] = []
@@ -937,8 +993,9 @@ def _rooms_preset(cfg: WorldConfig, robot_radius: float) -> Layout:
     rw, rh = W / nx, H / ny
     if min(rw, rh) < 2.0 * door + 2.0 * t:
         raise ValueError(
-            f"preset 'rooms': the {W:g} × {H:g} m arena is too small for {nx}×{ny} rooms "
-            f"with {door:.3g} m doors"
+            f"preset 'rooms': the {W:g} × {H:g} m arena (width × height) is too small for "
+            f"{nx}×{ny} rooms with {door:.3g} m doors (2·(radius + wall_thickness) + "
+            f"{2.0 * PASSAGE_MARGIN:g} m)"
         )
     walls: list[tuple[float, float, float, float]] = []
     doors: list[Point] = []

@@ -1,4 +1,5 @@
-"""SLAM metrics: pose and map error, NEES, Gaussian entropy, χ² bands. Pure numpy."""
+"""SLAM metrics: pose and map error, NEES, Gaussian entropy, χ² bands, for one
+estimate at a time (numpy; the equations the kernels share are theirs)."""
 
 from __future__ import annotations
 
@@ -10,8 +11,8 @@ import numpy as np
 
 from slam_env.ekf import chi2_ppf
 from slam_env.geometry import wrap_angle
-
-_LOG_2PI_E = math.log(2.0 * math.pi * math.e)
+from slam_env.kernels.diagnostics import pose_nees as kernel_pose_nees
+from slam_env.kernels.entropy import gaussian_entropy as kernel_gaussian_entropy
 
 
 def pose_error(estimate, truth) -> np.ndarray:
@@ -36,31 +37,12 @@ def nees(error, cov) -> float:
     return float(error @ solved)
 
 
-def _nees3(e: list[float], p: list[list[float]]) -> float:
-    """eᵀ P⁻¹ e for 3×3 P through its adjugate: the per-step pose NEES without the
-    overhead of a LAPACK call on a 3×3."""
-    (a, b, c), (_, d, f), (_, _, g) = p  # symmetric: only the upper triangle is read
-    cof_a = d * g - f * f
-    cof_b = c * f - b * g
-    cof_c = b * f - c * d
-    det = a * cof_a + b * cof_b + c * cof_c
-    if not det > 0.0:
-        return math.inf
-    quad = (
-        cof_a * e[0] * e[0]
-        + (a * g - c * c) * e[1] * e[1]
-        + (a * d - b * b) * e[2] * e[2]
-        + 2.0 * (cof_b * e[0] * e[1] + cof_c * e[0] * e[2] + (b * c - a * f) * e[1] * e[2])
-    )
-    return quad / det
-
-
 def pose_nees_from_error(error: list[float], cov: list[list[float]]) -> float:
-    """The pose NEES of an error (dx, dy, dθ) given as Python floats, its covariance
-    as nested lists: the per-step hot path of the belief wrapper."""
-    if not any(error):
-        return 0.0
-    return _nees3(error, cov)
+    """The pose NEES of an error (dx, dy, dθ) given as Python floats, its 3×3
+    covariance as nested lists (symmetric: only the upper triangle is read); the
+    per-step diagnostics' equation (:func:`slam_env.kernels.diagnostics.pose_nees`)."""
+    (a, b, c), (_, d, f), (_, _, g) = cov
+    return kernel_pose_nees(error[0], error[1], error[2], a, b, c, d, f, g)
 
 
 def map_rmse(estimates, truths) -> float:
@@ -78,7 +60,7 @@ def log_det_psd(cov, floor: float = 0.0, copy: bool = True) -> float:
     ``floor``, which keeps the result finite for a singular Σ.
 
     Tries a Cholesky factorisation first (fast); falls back to eigenvalues (clamped at
-    ``floor``, or the smallest positive double) when round-off leaves the matrix
+    ``floor``, or at 1e-300 without one) when round-off leaves the matrix
     slightly indefinite. ``copy=False`` lets the floor be added to a float64 ``cov``
     in place (a caller's scratch array).
     """
@@ -98,7 +80,7 @@ def log_det_psd(cov, floor: float = 0.0, copy: bool = True) -> float:
 def gaussian_entropy(cov, floor: float = 0.0) -> float:
     """Differential entropy ½·log det(2πe Σ) of a Gaussian, nats."""
     cov = np.asarray(cov, dtype=np.float64)
-    return 0.5 * (cov.shape[0] * _LOG_2PI_E + log_det_psd(cov, floor))
+    return kernel_gaussian_entropy(log_det_psd(cov, floor), cov.shape[0])
 
 
 def nees_band(dof: int, runs: int, confidence: float = 0.95) -> tuple[float, float]:

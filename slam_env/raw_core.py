@@ -7,6 +7,7 @@ native vector env runs for B sub-envs, so that both share every line of the mode
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
@@ -41,19 +42,29 @@ RANGE_HEADROOM_STD = 6.0
 OUTLIER_MIN_RANGE = 0.5
 
 
+def odometry_translation_bound(config: EnvConfig) -> float:
+    """The bound (m) of the odometry's translation reading (δtr or Δp)."""
+    return ODOMETRY_TRANSLATION_HEADROOM * config.robot.max_speed * config.dt + 1.0
+
+
+def detection_reach(config: EnvConfig) -> float:
+    """The bound (m) of a detection's range (or robot-frame coordinates)."""
+    sensor = config.sensor
+    return sensor.max_range + RANGE_HEADROOM_STD * max(sensor.range_std, sensor.cartesian_std)
+
+
 def raw_observation_space(
     config: EnvConfig, n_slots: int, max_detections: int
 ) -> tuple[spaces.Dict, RawParams]:
     """The raw observation space of one sub-env, and the bounds its values are clipped
     to with the reward's constants (see :class:`slam_env.env.LandmarksEnv`)."""
-    step_motion = config.robot.max_speed * config.dt
-    trans_bound = ODOMETRY_TRANSLATION_HEADROOM * step_motion + 1.0
+    trans_bound = odometry_translation_bound(config)
     if config.odometry.motion_model == "odometry":
         odo_high = np.array([math.pi, trans_bound, math.pi], dtype=np.float32)
     else:
         odo_high = np.array([trans_bound, math.pi], dtype=np.float32)
     sensor = config.sensor
-    reach = sensor.max_range + RANGE_HEADROOM_STD * max(sensor.range_std, sensor.cartesian_std)
+    reach = detection_reach(config)
     if sensor.measurement_model == "range_bearing":
         det_low = np.array([0.0, -math.pi], dtype=np.float32)
         det_high = np.array([reach, math.pi], dtype=np.float32)
@@ -82,7 +93,30 @@ def raw_observation_space(
     return spaces.Dict(obs_spaces), params
 
 
-class RawCore:
+class BatchCore:
+    """What both batched cores offer on top of their ``advance``: one sub-env's reset,
+    and a step of some sub-envs."""
+
+    rngs: list[np.random.Generator | None]
+    _idle: list[float]  # the speeds and turn rates of sub-envs that only reset
+    _none: np.ndarray  # (B,) False: no sub-env steps
+
+    def advance(
+        self, speed: list[float], turn: list[float], stepping: np.ndarray, resetting: Sequence[int]
+    ) -> list[Layout]:
+        raise NotImplementedError
+
+    def reset(self, index: int, rng: np.random.Generator) -> Layout:
+        """Start sub-env ``index`` on a new episode, its randomness from ``rng``."""
+        self.rngs[index] = rng
+        return self.advance(self._idle, self._idle, self._none, [index])[0]
+
+    def step(self, speed: list[float], turn: list[float], active: np.ndarray) -> None:
+        """One step of the active sub-envs (see :meth:`advance`)."""
+        self.advance(speed, turn, active, ())
+
+
+class RawCore(BatchCore):
     """B sub-envs of ``slam_env/Landmarks-v0`` with one config, stepped together.
 
     Each sub-env has its own generator (:attr:`rngs`, set by :meth:`reset`), its own
@@ -167,7 +201,8 @@ class RawCore:
             np.zeros(b),
         )
         self.terminated = np.zeros(b, dtype=bool)
-        self._one = np.eye(b, dtype=bool)
+        self._none = np.zeros(b, dtype=bool)
+        self._idle = [0.0] * b  # the speeds and turn rates of robots that do not move
         # The kernels' grouped arguments as plain tuples (see slam_env.kernels).
         self._sensor_fields = tuple(self._sensor)
         self._fault_fields = tuple(self._faults)
@@ -175,32 +210,32 @@ class RawCore:
         self._out_fields = tuple(self.out)  # the active mask of one sub-env
 
     # ------------------------------------------------------------------ stepping
-    def reset(self, index: int, rng: np.random.Generator) -> Layout:
-        """Start sub-env ``index`` on a new episode, its randomness from ``rng``."""
-        self.rngs[index] = rng
-        layout = self.worlds.reset(index, rng)
-        self.blocks.restart(index, rng)
-        self.seen[index] = False
-        self.collided[index] = False
-        self.kidnapped[index] = False
-        self.control[index] = 0.0
-        self.control_true[index] = 0.0
-        active = self._one[index]
-        uniforms = self.blocks.take(self.rngs, active)
-        self._sense(uniforms, active)
-        self._observe(active)
-        self.out.new_terms[index] = 0.0  # a reset pays nothing
-        self.out.collision_terms[index] = 0.0
-        self.out.rewards[index] = 0.0
-        self.terminated[index] = False
-        return layout
-
-    def step(self, speed: list[float], turn: list[float], active: np.ndarray) -> None:
-        """One step of the active sub-envs: robot b driven at ``speed[b]`` m/s and
-        ``turn[b]`` rad/s (lists of Python floats); ``active`` (B,) bool."""
+    def advance(
+        self,
+        speed: list[float],
+        turn: list[float],
+        stepping: np.ndarray,
+        resetting: Sequence[int],
+    ) -> list[Layout]:
+        """Step the sub-envs of ``stepping`` ((B,) bool; robot b driven at ``speed[b]``
+        m/s and ``turn[b]`` rad/s, lists of B Python floats) and start a new episode for
+        those listed in ``resetting`` (their generators already in :attr:`rngs`), in the
+        same kernel calls. A reset scan has no faults and pays nothing. Returns the new
+        episodes' layouts, in the order of ``resetting``."""
         worlds = self.worlds
-        before = worlds.move(speed, turn, active.tolist(), self.collided)
-        uniforms = self.blocks.take(self.rngs, active)
+        before = worlds.move(speed, turn, stepping.tolist(), self.collided)
+        touched = stepping.copy()
+        layouts = []
+        for b in resetting:
+            layouts.append(worlds.reset(b, self.rngs[b]))
+            self.blocks.restart(b, self.rngs[b])
+            self.seen[b] = False
+            self.collided[b] = False
+            self.kidnapped[b] = False
+            self.control[b] = 0.0
+            self.control_true[b] = 0.0
+            touched[b] = True
+        uniforms = self.blocks.take(self.rngs, touched)
         read_odometry(
             before,
             worlds.poses,
@@ -208,7 +243,7 @@ class RawCore:
             self._noise,
             uniforms,
             0,
-            active,
+            stepping,
             self.control_true,
             self.control,
         )
@@ -218,14 +253,21 @@ class RawCore:
                 self._bias,
                 uniforms,
                 self._fault_offset,
-                active,
+                stepping,
                 self.control,
             )
-            self._kidnap(uniforms, active)
-        self._sense(uniforms, active)
-        self._observe(active)
+            self._kidnap(uniforms, stepping)
+        self._sense(uniforms, touched, stepping)
+        self._observe(touched)
+        out = self.out
         if self.config.terminate_when_all_detected:
-            np.copyto(self.terminated, self.out.all_seen)
+            np.logical_and(out.all_seen, stepping, out=self.terminated)
+        for b in resetting:
+            out.new_terms[b] = 0.0
+            out.collision_terms[b] = 0.0
+            out.rewards[b] = 0.0
+            self.terminated[b] = False
+        return layouts
 
     def _kidnap(self, uniforms: np.ndarray, active: np.ndarray) -> None:
         rate = self.config.faults.kidnap_rate
@@ -235,7 +277,8 @@ class RawCore:
             for b in np.flatnonzero(events).tolist():
                 self.kidnapped[b] = self.worlds.kidnap(b, self.rngs[b])
 
-    def _sense(self, uniforms: np.ndarray, active: np.ndarray) -> None:
+    def _sense(self, uniforms: np.ndarray, active: np.ndarray, faulty: np.ndarray) -> None:
+        """The scans of ``active``; the faults, if any, on those of ``faulty``."""
         worlds = self.worlds
         sense_landmarks(
             worlds.poses,
@@ -258,7 +301,7 @@ class RawCore:
                 self.seen,
                 uniforms,
                 self._fault_offset,
-                active,
+                faulty,
                 self.det_z,
                 self.det_ids,
                 self.det_rows,
@@ -283,6 +326,11 @@ class RawCore:
             self.seen,
             self._out_fields,
         )
+
+    @property
+    def rewards(self) -> np.ndarray:
+        """(B,) the rewards of the last step (0 for a reset)."""
+        return self.out.rewards
 
     # ------------------------------------------------------------------ reading
     def observation(self, index: int) -> dict[str, np.ndarray]:
@@ -363,8 +411,9 @@ class RawCore:
             info["kidnapped"] = bool(self.kidnapped[index])
         return info
 
-    def infos(self) -> dict[str, Any]:
-        """Every sub-env's info, stacked (B, …), fresh arrays, without masks."""
+    def infos(self) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+        """Every sub-env's info, stacked (B, …), fresh arrays, and the masks of the keys
+        that not every sub-env reports (none here: every key, every sub-env)."""
         worlds = self.worlds
         info = {
             "pose": worlds.poses.copy(),
@@ -380,4 +429,4 @@ class RawCore:
         }
         if self.faults_on:
             info["kidnapped"] = self.kidnapped.copy()
-        return info
+        return info, {}

@@ -19,5 +19,6 @@ def register_envs() -> None:
         gym.register(
             id="slam_env/ActiveSLAM-v0",
             entry_point="slam_env.active_slam:ActiveSLAMEnv",
+            vector_entry_point="slam_env.vector:ActiveSLAMVectorEnv",
             max_episode_steps=DEFAULT_MAX_EPISODE_STEPS,
         )

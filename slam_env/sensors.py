@@ -26,13 +26,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from slam_env.config import OdometryConfig, SensorConfig
-from slam_env.kernels.odometry import (
-    noisy_control,
-    odometry_uniforms,
-    odometry_variances,
-    true_control,
-    velocity_variances,
-)
+from slam_env.kernels.models import odometry_variances, velocity_variances
+from slam_env.kernels.odometry import noisy_control, odometry_uniforms, true_control
 from slam_env.kernels.sensing import SensorParams, emit_detections, in_view, scan_uniforms
 
 __all__ = ["Detections", "LandmarkSensor", "LineOfSight", "OdometrySensor"]
@@ -145,7 +140,7 @@ class LandmarkSensor:
         positions = self._as_positions(positions)
         n = positions.shape[0]
         rows = np.empty(n, dtype=np.int64)
-        found = np.empty((n, 4))
+        found = np.empty((n, 3))
         params = self._params._replace(detection_prob=1.0)
         x, y, theta = float(pose[0]), float(pose[1]), float(pose[2])
         k = in_view(x, y, theta, positions, np.arange(n), params, np.empty(0), rows, found)
@@ -187,7 +182,7 @@ class LandmarkSensor:
         uniforms = rng.random(scan_uniforms(n, d)) if draws else np.zeros(scan_uniforms(n, d))
         order = np.argsort(ids, kind="stable")
         rows = np.empty(n, dtype=np.int64)
-        found = np.empty((n, 4))
+        found = np.empty((n, 3))
         k = in_view(x, y, theta, positions, order, params, uniforms, rows, found)
         if line_of_sight is not None and k:
             # Read-only views: the callback cannot modify the caller's arrays.
@@ -255,8 +250,8 @@ class OdometrySensor:
         """The action-space noise covariance at u: M (3×3) or Σu (2×2), diagonal."""
         u = self._control(u)
         if self._velocity:
-            return np.diag(velocity_variances(u[0], u[1], self._noise))
-        return np.diag(odometry_variances(u[0], u[1], u[2], self._noise))
+            return np.diag(velocity_variances(u[0], u[1], *self.velocity_noise))
+        return np.diag(odometry_variances(u[0], u[1], u[2], *self.alphas))
 
     def perturb(self, u, rng: np.random.Generator) -> np.ndarray:
         """A noisy reading of the (true) control u: ``u + sqrt(diag(C(u)))·ε``,

@@ -20,20 +20,33 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
 from slam_env.actions import DISCRETE_PRIMITIVES, parse_actions
-from slam_env.config import make_config
+from slam_env.active_core import ActiveCore
+from slam_env.active_options import ActiveSLAMOptions, active_config
+from slam_env.active_slam import _OWN_ARGUMENTS as ACTIVE_SLAM_ARGUMENTS
+from slam_env.budget import check_budget, world_size
+from slam_env.config import check_option_names, make_config
+from slam_env.ekf import EKFSLAM
 from slam_env.raw_core import RawCore
 from slam_env.registration import DEFAULT_MAX_EPISODE_STEPS
 
 AUTORESET_MODES = (AutoresetMode.NEXT_STEP, AutoresetMode.SAME_STEP)
 
 
-def with_masks(info: dict[str, Any], reported: np.ndarray) -> dict[str, Any]:
+def with_masks(
+    info: dict[str, Any], reported: np.ndarray, masks: dict[str, np.ndarray] | None = None
+) -> dict[str, Any]:
     """A vector info in Gymnasium's convention: next to every key its ``_key`` mask of
-    the sub-envs that reported it (``reported``, (B,) bool), nested dicts likewise."""
+    the sub-envs that reported it, ``reported`` ((B,) bool), and with it ``masks[key]``
+    for a key that not all of them report (a key none reports is left out); nested
+    dicts likewise."""
     out: dict[str, Any] = {}
     for key, value in info.items():
+        own = (masks or {}).get(key)
+        mask = reported.copy() if own is None else reported & own
+        if not mask.any():
+            continue  # as Gymnasium: a key no sub-env reported is not there
         out[key] = with_masks(value, reported) if isinstance(value, dict) else value
-        out[f"_{key}"] = reported.copy()
+        out[f"_{key}"] = mask
     return out
 
 
@@ -117,11 +130,11 @@ class SlamVectorEnv(VectorEnv):
         self._max_speed = self.config.robot.max_speed
         self._max_turn_rate = self.config.robot.max_turn_rate
         b = self.num_envs
-        self._rngs: list[np.random.Generator | None] = [None] * b
         self._elapsed = np.zeros(b, dtype=np.int64)
         self._autoreset = np.zeros(b, dtype=bool)
         self._started = False
         self._all = np.ones(b, dtype=bool)
+        self._idle = [0.0] * b  # the speeds and turn rates of sub-envs that only reset
         self._trails: list[list[tuple[float, float]]] = [[] for _ in range(b)]
         self._renderers: list[Any] = [None] * b
 
@@ -137,15 +150,20 @@ class SlamVectorEnv(VectorEnv):
         generator, or draw fresh entropy the first time)."""
         if options:
             raise ValueError(f"{type(self).__name__}.reset takes no options, got {options!r}")
-        seeds = self._seeds(seed)
-        for b, s in enumerate(seeds):
-            if s is not None or self._rngs[b] is None:
-                self._rngs[b], _ = seeding.np_random(s)
-            self._reset_one(b)
-        self._elapsed[:] = 0
+        rngs = self.core.rngs
+        for b, s in enumerate(self._seeds(seed)):
+            if s is not None or rngs[b] is None:
+                rngs[b], _ = seeding.np_random(s)
+        everyone = list(range(self.num_envs))
+        self.core.advance(self._idle, self._idle, ~self._all, everyone)
+        self._finish_resets(everyone)
         self._autoreset[:] = False
         self._started = True
-        return self.core.observations(), with_masks(self.core.infos(), self._all)
+        return self.core.observations(), with_masks(*self._infos())
+
+    def _infos(self) -> tuple[dict[str, Any], np.ndarray, dict[str, np.ndarray]]:
+        info, masks = self.core.infos()
+        return info, self._all, masks
 
     def _seeds(self, seed: int | Sequence[int | None] | None) -> list[int | None]:
         b = self.num_envs
@@ -159,13 +177,15 @@ class SlamVectorEnv(VectorEnv):
             return list(seed)
         raise TypeError(f"seed must be an int, a list of {b} ints or None, got {seed!r}")
 
-    def _reset_one(self, index: int) -> None:
-        layout = self.core.reset(index, self._rngs[index])
-        if self.render_mode is not None:
-            pose = self.core.worlds.poses[index]
-            self._trails[index] = [(float(pose[0]), float(pose[1]))]
-            if self._renderers[index] is not None:
-                self._renderers[index].set_layout(layout)
+    def _finish_resets(self, indices: list[int]) -> None:
+        """After the sub-envs of ``indices`` reset: their step counts and pictures."""
+        for b in indices:
+            self._elapsed[b] = 0
+            if self.render_mode is not None:
+                pose = self.core.worlds.poses[b]
+                self._trails[b] = [(float(pose[0]), float(pose[1]))]
+                if self._renderers[b] is not None:
+                    self._renderers[b].set_layout(self.core.worlds.worlds[b].layout)
 
     def step(self, actions: Any) -> tuple[Any, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
         if not self._started:
@@ -175,30 +195,33 @@ class SlamVectorEnv(VectorEnv):
         active = ~resetting
         speed, turn = parse_actions(actions, self.single_action_space, self.num_envs, active)
         max_speed, max_turn = self._max_speed, self._max_turn_rate
-        core.step([s * max_speed for s in speed], [t * max_turn for t in turn], active)
+        speed = [s * max_speed for s in speed]
+        turn = [t * max_turn for t in turn]
+        next_step = self.metadata["autoreset_mode"] == AutoresetMode.NEXT_STEP
+        # NEXT_STEP: the sub-envs that ended last step start anew in this step's calls.
+        starting = np.flatnonzero(resetting).tolist() if next_step else []
+        core.advance(speed, turn, active, starting)
         self._elapsed += active
         terminated = core.terminated & active
         truncated = np.zeros(self.num_envs, dtype=bool)
         if self.max_episode_steps is not None:
             truncated = (self._elapsed >= self.max_episode_steps) & active
-        rewards = np.where(active, core.out.rewards, 0.0)
+        rewards = np.where(active, core.rewards, 0.0)
         if self.render_mode is not None:
             for b in np.flatnonzero(active).tolist():
                 pose = core.worlds.poses[b]
                 self._trails[b].append((float(pose[0]), float(pose[1])))
         done = terminated | truncated
         final: dict[str, Any] | None = None
-        if self.metadata["autoreset_mode"] == AutoresetMode.NEXT_STEP:
-            for b in np.flatnonzero(resetting).tolist():
-                self._reset_one(b)
-            self._elapsed[resetting] = 0
+        if next_step:
+            self._finish_resets(starting)
             self._autoreset = done
-        elif done.any():  # SAME_STEP
+        elif done.any():  # SAME_STEP: the ended sub-envs start anew now
             final = self._final(done)
-            for b in np.flatnonzero(done).tolist():
-                self._reset_one(b)
-            self._elapsed[done] = 0
-        infos = with_masks(core.infos(), self._all)
+            ended = np.flatnonzero(done).tolist()
+            core.advance(self._idle, self._idle, ~self._all, ended)
+            self._finish_resets(ended)
+        infos = with_masks(*self._infos())
         if final is not None:
             infos.update(final)
         return core.observations(), rewards, terminated, truncated, infos
@@ -209,7 +232,8 @@ class SlamVectorEnv(VectorEnv):
         final_obs = np.full(self.num_envs, None, dtype=object)
         for b in np.flatnonzero(done).tolist():
             final_obs[b] = self.core.observation(b)
-        final_info = with_masks(_select(self.core.infos(), done), done)
+        info, masks = self.core.infos()
+        final_info = with_masks(_select(info, done), done, masks)
         return {
             "final_obs": final_obs,
             "_final_obs": done.copy(),
@@ -259,7 +283,11 @@ class SlamVectorEnv(VectorEnv):
 
 
 def _raw_core(num_envs: int, config: Any = None, **options: Any) -> RawCore:
-    return RawCore(make_config(config, **options), num_envs)
+    check_option_names(options, ("config",))
+    config = make_config(config, **options)
+    # Everything that scales work or memory, for all the sub-envs, before it is built.
+    check_budget(config, world_size(config), num_envs=num_envs)
+    return RawCore(config, num_envs)
 
 
 class LandmarksVectorEnv(SlamVectorEnv):
@@ -268,3 +296,23 @@ class LandmarksVectorEnv(SlamVectorEnv):
 
     def __init__(self, num_envs: int, **kwargs: Any) -> None:
         super().__init__(num_envs, _raw_core, **kwargs)
+
+
+def _active_core(num_envs: int, **options: Any) -> ActiveCore:
+    own = {k: options.pop(k) for k in ActiveSLAMOptions.argument_names() if k in options}
+    active = ActiveSLAMOptions(**own)
+    check_option_names(options, ("config", *ACTIVE_SLAM_ARGUMENTS))
+    return ActiveCore(active_config(active, options, num_envs), num_envs, active)
+
+
+class ActiveSLAMVectorEnv(SlamVectorEnv):
+    """The native vector env of ``slam_env/ActiveSLAM-v0`` (see :class:`SlamVectorEnv`;
+    the sub-envs are :class:`slam_env.active_slam.ActiveSLAMEnv`, with the same
+    options)."""
+
+    def __init__(self, num_envs: int, **kwargs: Any) -> None:
+        super().__init__(num_envs, _active_core, **kwargs)
+
+    def filter(self, index: int) -> EKFSLAM:
+        """Sub-env ``index``'s EKF-SLAM filter (its state is the vector env's)."""
+        return self.core.filter(index)

@@ -16,8 +16,12 @@ the whole step; in free space that is the only query, and often none is needed: 
 query also bounds the clearance around its point, which settles the next moves
 exactly (see :meth:`World._clearance`).
 
-The static geometry lives in pymunk; the robot's pose is three Python floats, mirrored
-into its body when the space is read, so a pickled world resumes bit-identically.
+The static geometry lives in pymunk, which moves the robot through its public API, and
+also in arrays (:mod:`slam_env.kernels.geometry`, a batch of one world) for the
+compiled segment queries of line of sight and the proximity scan
+(:mod:`slam_env.kernels.raycast`), which answer exactly as pymunk's own segment queries
+would. The robot's pose is three Python floats, mirrored into its body when the space
+is read, so a pickled world resumes bit-identically.
 """
 
 from __future__ import annotations
@@ -28,14 +32,9 @@ from typing import Any
 import numpy as np
 import pymunk
 
-# pymunk's own cffi binding of Chipmunk, private to pymunk (pyproject.toml pins pymunk
-# to 7.x): the hot queries call it directly, because pymunk's Python wrappers (an
-# ffi.new, a handle lookup and a result tuple of Vec2d per query) cost about three
-# times the query itself. The tests hold them to the public pymunk queries.
-from pymunk._chipmunk_cffi import ffi as _ffi
-from pymunk._chipmunk_cffi import lib as _lib
-
 from slam_env.config import RobotConfig
+from slam_env.kernels import raycast
+from slam_env.kernels.geometry import empty_geometry, set_world, static_shapes
 from slam_env.layouts import LANDMARK_POST_RADIUS, Layout
 
 __all__ = ["LANDMARK_POST_RADIUS", "World"]
@@ -58,31 +57,6 @@ CLEARANCE_LOOKAHEAD = 0.5
 # Slack (m) for round-off when a move is settled from an earlier query's answer; the
 # distances involved are exact to ~1e-15 m.
 _CLEARANCE_SLACK = 1e-9
-
-
-class _CQueries:
-    """The C-side arguments of a world's direct Chipmunk queries (see
-    :meth:`World._new_c_side`): a reusable point-query result buffer, the motion
-    filter, and each landmark's line-of-sight filter and position."""
-
-    __slots__ = ("_owners", "landmark_points", "los_filters", "motion_filter", "point_info")
-
-    def __init__(
-        self, los_filters: tuple[pymunk.ShapeFilter, ...], points: tuple[tuple[float, float], ...]
-    ) -> None:
-        self.point_info = _ffi.new("cpPointQueryInfo *")
-        # ffi.new returns an owning pointer; its [0], the struct passed by value, lives
-        # in that memory, so the owners are kept with it.
-        owners = (
-            _ffi.new("cpShapeFilter *", tuple(_MOTION_FILTER)),
-            *(_ffi.new("cpShapeFilter *", tuple(f)) for f in los_filters),
-            *(_ffi.new("cpVect *", p) for p in points),
-        )
-        self._owners = owners
-        n = len(los_filters)
-        self.motion_filter = owners[0][0]
-        self.los_filters = tuple(o[0] for o in owners[1 : 1 + n])
-        self.landmark_points = tuple(o[0] for o in owners[1 + n :])
 
 
 class World:
@@ -144,14 +118,9 @@ class World:
         self._landmark_positions = positions
         self._landmark_ids = ids
         self._landmark_points = tuple((x, y) for x, y in positions.tolist())
-        # One query filter per landmark: its post has group i + 1, so the query skips
-        # it; the mask skips the robot.
-        self._los_filters = tuple(
-            pymunk.ShapeFilter(group=i + 1, categories=_ALL, mask=_ALL & ~CAT_ROBOT)
-            for i in range(layout.n_landmarks)
-        )
         self._build_space()
-        self._new_c_side()
+        # The same shapes as arrays, for the compiled segment queries: a batch of one.
+        self._geometry = set_world(empty_geometry(1), 0, layout, self.wall_thickness)
         # (cx, cy, d): nothing the robot can hit lies closer than d to (cx, cy).
         self._clear_disk = (0.0, 0.0, -math.inf)
         x, y, theta = layout.start_pose
@@ -160,28 +129,25 @@ class World:
     # ----------------------------------------------------------------- construction
 
     def _build_space(self) -> None:
-        layout, t = self.layout, self.wall_thickness
+        # The same shapes as the kernels' arrays: both come from static_shapes.
+        listed = static_shapes(self.layout, self.wall_thickness)
         space = pymunk.Space()
         static = space.static_body
         shapes: list[pymunk.Shape] = []
-
-        W, H = layout.width, layout.height
-        # Boundary walls sit outside the arena so their inner face is its edge.
-        corners = ((-t, -t), (W + t, -t), (W + t, H + t), (-t, H + t))
-        for i in range(4):
-            shapes.append(pymunk.Segment(static, corners[i], corners[(i + 1) % 4], t))
-        for x0, y0, x1, y1 in layout.walls:
-            shapes.append(pymunk.Segment(static, (x0, y0), (x1, y1), t))
         wall_filter = pymunk.ShapeFilter(categories=CAT_WALL)
-        for s in shapes:
+        for a, b, radius in listed.segments:
+            s = pymunk.Segment(static, a, b, radius)
             s.filter = wall_filter
+            shapes.append(s)
         obstacle_filter = pymunk.ShapeFilter(categories=CAT_OBSTACLE)
-        for poly in layout.obstacles:
+        for poly in listed.polygons:
             s = pymunk.Poly(static, poly)
             s.filter = obstacle_filter
             shapes.append(s)
-        for i, (x, y) in enumerate(layout.landmark_positions):
-            s = pymunk.Circle(static, LANDMARK_POST_RADIUS, (x, y))
+        # Post i has group i + 1, so that a query filter of that group skips it, as the
+        # line of sight to landmark i does (the kernels' tests ask pymunk that way).
+        for i, (centre, radius) in enumerate(listed.circles):
+            s = pymunk.Circle(static, radius, centre)
             s.filter = pymunk.ShapeFilter(group=i + 1, categories=CAT_POST)
             shapes.append(s)
 
@@ -192,21 +158,6 @@ class World:
         self._space = space
         self._body = body
         self._robot_shape = shape
-
-    def _new_c_side(self) -> None:
-        """Build the C structs that the direct Chipmunk queries pass: converting a
-        ShapeFilter or a point from Python costs about as much as a query. cdata
-        cannot be pickled, so every copy of the world builds its own."""
-        self._c = _CQueries(self._los_filters, self._landmark_points)
-
-    def __getstate__(self) -> dict[str, Any]:
-        state = self.__dict__.copy()
-        del state["_c"]
-        return state
-
-    def __setstate__(self, state: dict[str, Any]) -> None:
-        self.__dict__.update(state)
-        self._new_c_side()
 
     def _place(self, x: float, y: float, theta: float) -> None:
         self._x, self._y = x, y
@@ -338,14 +289,8 @@ class World:
         if bound >= reach:
             return bound
         radius = reach + CLEARANCE_LOOKAHEAD
-        # point_query_nearest, called directly: a shape found (non-NULL) has its
-        # distance in the result buffer.
-        c = self._c
-        info = c.point_info
-        if _lib.cpSpacePointQueryNearest(self._space._space, (x, y), radius, c.motion_filter, info):
-            clear = info.distance
-        else:
-            clear = radius
+        hit = self._space.point_query_nearest((x, y), radius, _MOTION_FILTER)
+        clear = radius if hit is None else hit.distance
         self._clear_disk = (x, y, clear)
         return clear
 
@@ -360,8 +305,7 @@ class World:
         a query: the same answers, fewer queries.
         """
         radius = self.robot.radius
-        query, space = _lib.cpSpacePointQueryNearest, self._space._space
-        info, motion_filter = self._c.point_info, self._c.motion_filter
+        query = self._space.point_query_nearest
         hx, hy, hd = x + dx, y + dy, gap  # the last point found blocked, its distance
         lo, hi = 0.0, 1.0
         for _ in range(CONTACT_BISECTIONS):
@@ -370,12 +314,12 @@ class World:
             if hd + math.hypot(px - hx, py - hy) + _CLEARANCE_SLACK < radius:
                 hi = mid
                 continue
-            # point_query_nearest, called directly (see _clearance)
-            if query(space, (px, py), radius, motion_filter, info):
-                hi = mid
-                hx, hy, hd = px, py, info.distance
-            else:
+            hit = query((px, py), radius, _MOTION_FILTER)
+            if hit is None:
                 lo = mid
+            else:
+                hi = mid
+                hx, hy, hd = px, py, hit.distance
         return lo
 
     # ----------------------------------------------------------------- line of sight
@@ -383,29 +327,25 @@ class World:
     def line_of_sight(self, origin: Any, target: Any, landmark_index: int) -> bool:
         """True when the segment origin → target (each (2,), m) is not blocked by a wall,
         an obstacle or another landmark's post; the robot and the post of landmark
-        ``landmark_index`` (its row in :attr:`landmark_positions`) are ignored."""
-        hit = self._space.segment_query_first(
-            (float(origin[0]), float(origin[1])),
-            (float(target[0]), float(target[1])),
-            0.0,
-            self._los_filters[landmark_index],
+        ``landmark_index`` (its row in :attr:`landmark_positions`; negative counts from
+        the end) are ignored. ``IndexError`` for a row that does not exist."""
+        row = range(len(self._landmark_points))[landmark_index]
+        return raycast.line_of_sight(
+            self._geometry,
+            0,
+            float(origin[0]),
+            float(origin[1]),
+            float(target[0]),
+            float(target[1]),
+            row,
         )
-        return hit is None
 
     def _landmark_visible_from(self, x: float, y: float, landmark_index: int) -> bool:
         """``line_of_sight((x, y), <the landmark's position>, landmark_index)`` for a
-        point given as Python floats: the env's occlusion test, without converting
-        arrays at every call, and calling Chipmunk directly (no result is built: a
-        NULL ``out`` is allowed, and the returned shape pointer is NULL when clear)."""
-        c = self._c
-        return not _lib.cpSpaceSegmentQueryFirst(
-            self._space._space,
-            (x, y),
-            c.landmark_points[landmark_index],
-            0.0,
-            c.los_filters[landmark_index],
-            _ffi.NULL,
-        )
+        point given as Python floats and a row in range: the env's occlusion test,
+        without converting arrays at every call."""
+        tx, ty = self._landmark_points[landmark_index]
+        return raycast.line_of_sight(self._geometry, 0, x, y, tx, ty, landmark_index)
 
     def range_scan(
         self, x: float, y: float, theta: float, angles: tuple[float, ...], max_range: float
@@ -413,13 +353,12 @@ class World:
         """Distances (m, from the robot's centre, at most ``max_range``) to the first
         wall, obstacle or post along each beam at ``angles`` (rad, robot frame): a
         proximity sensor that lets a policy see what the landmark map cannot."""
-        query = self._space.segment_query_first
-        out = []
-        for a in angles:
-            end = (x + max_range * math.cos(theta + a), y + max_range * math.sin(theta + a))
-            hit = query((x, y), end, 0.0, _MOTION_FILTER)
-            out.append(max_range if hit is None else hit.alpha * max_range)
-        return out
+        beams = np.array(angles, dtype=np.float64).reshape(-1)
+        out = np.empty(beams.shape[0])
+        raycast.range_scan(
+            self._geometry, 0, float(x), float(y), float(theta), beams, float(max_range), out
+        )
+        return out.tolist()
 
     # ----------------------------------------------------------------- pickling
 

@@ -6,8 +6,8 @@ import numpy as np
 
 from slam_env.config import EnvConfig
 from slam_env.faults import kidnap_pose
-from slam_env.kernels.geometry import Geometry, empty_geometry, set_world
-from slam_env.layouts import LANDMARK_POST_RADIUS, Layout, layout_for
+from slam_env.kernels.geometry import StaticGeometry, empty_geometry, set_world
+from slam_env.layouts import Layout, layout_for
 from slam_env.world import World
 
 
@@ -44,7 +44,7 @@ class WorldBatch:
         self.landmarks = np.zeros((num_envs, n, 2))
         self.landmark_ids = np.zeros((num_envs, n), dtype=np.int64)
         self.id_order = np.tile(np.arange(n, dtype=np.int64), (num_envs, 1))
-        self.geometry: Geometry = empty_geometry(num_envs)
+        self.geometry: StaticGeometry = empty_geometry(num_envs)
 
     def reset(self, index: int, rng: np.random.Generator) -> Layout:
         """A new episode's world for sub-env ``index`` (drawn from ``rng`` when random)."""
@@ -65,9 +65,7 @@ class WorldBatch:
         ids = world.landmark_ids
         self.landmark_ids[index] = ids
         self.id_order[index] = np.argsort(ids, kind="stable")
-        self.geometry = set_world(
-            self.geometry, index, layout, cfg.world.wall_thickness, LANDMARK_POST_RADIUS
-        )
+        self.geometry = set_world(self.geometry, index, layout, cfg.world.wall_thickness)
         return layout
 
     def move(

@@ -9,12 +9,26 @@ from typing import Any, SupportsFloat
 import gymnasium as gym
 import numpy as np
 
-from slam_env import metrics
 from slam_env.belief import BeliefGeometry, EgocentricEncoding, FullEncoding
+from slam_env.belief_entropy import ENTROPY_FLOOR, BeliefEntropy, landmark_prior_variance
 from slam_env.ekf import CORRECTED, CORRECTION_MODES, EKFSLAM, REJECTED, chi2_gate
 from slam_env.env import unpack_detections
-from slam_env.geometry import wrap_angle
+from slam_env.kernels.belief_state import SINGLE, BeliefBatch, filter_belief
+from slam_env.kernels.diagnostics import DIAGNOSTICS, belief_diagnostics
+from slam_env.kernels.reward import RewardSignals, active_slam_reward
 from slam_env.overlay import BeliefOverlay
+
+__all__ = [
+    "DEFAULT_GATE",
+    "DIVERGENCE_REJECTIONS",
+    "ENTROPY_FLOOR",
+    "OBSERVATION_MODES",
+    "REWARD_TERMS",
+    "ActiveSLAMReward",
+    "ActiveSLAMRewardWeights",
+    "EKFSLAMWrapper",
+    "landmark_prior_variance",
+]
 
 OBSERVATION_MODES = ("egocentric", "full")
 # Raw observation keys handed to the policy as they are, in this order: the proximity
@@ -26,16 +40,10 @@ DEFAULT_GATE = chi2_gate(0.999)
 # This many gate rejections in a row, with no accepted correction between, means the
 # belief no longer explains what the robot sees.
 DIVERGENCE_REJECTIONS = 10
-# Covariance floor (m², rad²) of the entropy: uncertainty below 1 cm carries no
-# information worth paying for, and it keeps the entropy finite for an exactly
-# known start pose.
-ENTROPY_FLOOR = 1e-4
-
-
-def landmark_prior_variance(width: float, height: float) -> tuple[float, float]:
-    """Variance of a landmark position uniform over the arena: the broad prior that an
-    unseen landmark's slot carries in the belief entropy."""
-    return width * width / 12.0, height * height / 12.0
+# What the filter raises when its arithmetic breaks down. The wrapper feeds it only the
+# env's own stream, well-formed by construction (finite, of the right shapes, IDs in
+# range), so a ValueError from it (a math domain error, a LinAlgError) is numerical too.
+NUMERICAL_FAILURES = (ArithmeticError, ValueError)
 
 
 class EKFSLAMWrapper(gym.ObservationWrapper):
@@ -64,15 +72,21 @@ class EKFSLAMWrapper(gym.ObservationWrapper):
     the full belief.
 
     ``info`` gains, every step: ``pose_error`` (m), ``heading_error`` (rad),
-    ``map_rmse`` (m, over known landmarks; nan before the first), ``pose_nees``,
+    ``map_rmse`` (m, over known landmarks; absent before the first, as an undefined
+    metric is: never NaN, so equal runs give equal infos), ``pose_nees``,
     ``landmarks_known``, ``rejected`` (observations the gate refused this episode),
     ``entropy`` (nats, see :meth:`belief_entropy`), ``pose_std`` (m, √trace of the
     position covariance), ``belief_clipped`` (the belief left the observation's
     bounds), ``consecutive_rejections`` (observations of known landmarks the gate has
     refused in a row) and ``diverged``: the filter has lost track, because the belief
-    was clipped, a correction failed numerically (it is then skipped, never applied as
-    NaN), or the gate refused ``DIVERGENCE_REJECTIONS`` observations in a row (after a
-    kidnapping, every landmark is where the belief says it cannot be).
+    was clipped, a prediction or correction failed numerically (it is then skipped,
+    never applied as NaN, and never raised out of ``step``), or the gate refused
+    ``DIVERGENCE_REJECTIONS`` observations in a row (after a kidnapping, every
+    landmark is where the belief says it cannot be). ``pose_nees`` is absent, like
+    ``map_rmse``, in the one case it is undefined (a covariance gone non-finite).
+
+    The encoding, the diagnostics and the entropy are computed by the belief kernels
+    (:mod:`slam_env.kernels`) on the filter's belief as a batch of one.
     """
 
     def __init__(
@@ -117,12 +131,14 @@ class EKFSLAMWrapper(gym.ObservationWrapper):
             height=height,
             max_range=cfg.sensor.max_range,
         )
-        vx, vy = landmark_prior_variance(width, height)
-        # Per-step constants of the belief entropy.
-        self._prior_log_det = math.log(vx + ENTROPY_FLOOR) + math.log(vy + ENTROPY_FLOOR)
-        dim = 3 + 2 * base.n_landmark_slots
-        self._entropy_dim_term = dim * math.log(2.0 * math.pi * math.e)
-        self._floor_eye = ENTROPY_FLOOR * np.eye(dim)
+        self._entropy = BeliefEntropy(base.n_landmark_slots, width, height)
+        # The kernels' outputs for the batch of one, read each step.
+        self._entropy_out = np.empty(SINGLE)
+        self._entropy_ok = np.empty(SINGLE, dtype=np.bool_)
+        self._diagnostics = np.empty((len(DIAGNOSTICS), SINGLE))
+        self._clipped = np.empty(SINGLE, dtype=np.bool_)
+        self._no_tail = np.empty((SINGLE, 0), dtype=np.float32)
+        self._one = np.ones(SINGLE, dtype=np.bool_)  # the kernels' mask: the one world
         if observation == "full":
             self._encoding = FullEncoding(self._geometry)
         else:
@@ -153,10 +169,9 @@ class EKFSLAMWrapper(gym.ObservationWrapper):
     ) -> tuple[Any, dict[str, Any]]:
         raw, info = self.env.reset(seed=seed, options=options)
         # Landmarks do not move: index the true map by ID once per episode.
-        self._truth_by_id = np.full((self._geometry.max_landmarks, 2), np.nan)
-        self._truth_by_id[info["landmark_ids"]] = info["landmark_positions"]
-        self._truth_flat = np.full(2 * self._geometry.max_landmarks, np.nan)
-        self._n_truth = 0
+        truth = np.full((self._geometry.max_landmarks, 2), np.nan)
+        truth[info["landmark_ids"]] = info["landmark_positions"]
+        self._true_landmarks = truth[None]
         self.filter.reset(initial_pose=info["pose"], initial_pose_cov=self._initial_pose_cov)
         self._consecutive_rejections = 0
         self._numerical_failure = False
@@ -165,7 +180,10 @@ class EKFSLAMWrapper(gym.ObservationWrapper):
 
     def step(self, action: Any) -> tuple[Any, SupportsFloat, bool, bool, dict[str, Any]]:
         raw, reward, terminated, truncated, info = self.env.step(action)
-        self.filter.predict(raw["odometry"])
+        try:
+            self.filter.predict(raw["odometry"])
+        except NUMERICAL_FAILURES:
+            self._numerical_failure = True  # the belief has diverged: report it
         self._correct(raw)
         obs, info = self._observe(raw, info)
         return obs, reward, terminated, truncated, info
@@ -173,45 +191,43 @@ class EKFSLAMWrapper(gym.ObservationWrapper):
     def observation(self, observation: Any) -> Any:
         """The belief encoding of the filter's current state (the raw observation has
         already been folded into the filter by ``reset``/``step``)."""
-        obs, self._last_clipped = self._encode(*self.filter.belief_views(), observation)
+        obs, self._last_clipped = self._encode(filter_belief(self.filter), observation)
         return obs
 
-    def _encode(
-        self, mean: np.ndarray, cov: np.ndarray, ids: np.ndarray, raw: dict[str, np.ndarray]
-    ) -> tuple[Any, bool]:
-        """The belief observation with the raw proximity readings passed through."""
+    def _encode(self, belief: BeliefBatch, raw: dict[str, np.ndarray]) -> tuple[Any, bool]:
+        """The belief observation (fresh arrays) with the raw proximity readings passed
+        through."""
         if self.observation_mode == "full":
-            obs, clipped = self._encoding.encode(mean, cov, ids)
+            out = self._encoding.empty(SINGLE)
+            self._encoding.encode_batch(belief, out)
+            obs = {"mean": out.mean[0], "cov": out.cov[0], "known": out.known[0]}
             for key in self._passthrough:
                 obs[key] = raw[key].copy()
-            return obs, clipped
-        tail = [v for key in self._passthrough for v in raw[key].tolist()]
-        return self._encoding.encode(mean, cov, ids, tail)
+            return obs, bool(out.clipped[0])
+        if self._passthrough:
+            tail = np.concatenate([raw[key] for key in self._passthrough])[None]
+        else:
+            tail = self._no_tail
+        out = np.empty((SINGLE, self._encoding.size + tail.shape[1]), dtype=np.float32)
+        self._encoding.encode_batch(belief, tail, out, self._clipped)
+        return out[0], bool(self._clipped[0])
 
     def belief_entropy(self, cov: np.ndarray | None = None) -> float:
         """Entropy (nats) of the belief over the pose and all ``max_landmarks`` slots:
         an unseen landmark's slot carries an independent prior, uniform over the arena
         in its first two moments, so discovering a landmark lowers the entropy and the
-        dimension never changes. It is computed for Σ + ``ENTROPY_FLOOR``·I.
-        ``cov`` is the filter's covariance if already at hand (it is not modified)."""
-        cov = self.filter.belief_views()[1] if cov is None else cov
-        d = cov.shape[0]
-        unseen = self._geometry.max_landmarks - (d - 3) // 2
-        # Σ + floor·I into a fresh array (the floor's diagonal is laid out once).
-        shifted = np.add(cov, self._floor_eye[:d, :d])
-        log_det = metrics.log_det_psd(shifted, copy=False) + unseen * self._prior_log_det
-        return 0.5 * (self._entropy_dim_term + log_det)
+        dimension never changes. It is computed for Σ + ``ENTROPY_FLOOR``·I (see
+        :class:`slam_env.belief_entropy.BeliefEntropy`). ``cov``: a covariance in the
+        filter's state order (not modified); default the filter's."""
+        if cov is not None:
+            return self._entropy(cov)
+        belief = filter_belief(self.filter)
+        self._entropy.batch(belief.P, belief.n, self._entropy_out, self._entropy_ok)
+        return self._entropy_out.item()
 
     def belief_overlay(self, true_landmarks: Any = None) -> BeliefOverlay:
         f = self.filter
-        return BeliefOverlay(
-            pose=f.pose,
-            pose_cov=f.pose_cov,
-            landmark_ids=f.state_to_id,
-            landmark_means=f.landmark_means(),
-            landmark_covs=f.landmark_covs(),
-            true_landmarks=true_landmarks,
-        )
+        return BeliefOverlay.from_state(f.mean, f.cov, f.state_to_id, true_landmarks)
 
     def render(self) -> Any:
         base = self.env.unwrapped
@@ -221,12 +237,12 @@ class EKFSLAMWrapper(gym.ObservationWrapper):
 
     # ------------------------------------------------------------------ helpers
     def _correct(self, raw: dict[str, np.ndarray]) -> None:
-        if not max(raw["mask"].tolist(), default=0.0) > 0.5:
-            return  # nothing detected: no unpacking, no update
+        if not raw["mask"].any():
+            return  # nothing detected (the mask is 0 or 1): no unpacking, no update
         z, ids = unpack_detections(raw)
         try:
             result = self.filter.update(z, ids)
-        except FloatingPointError:
+        except NUMERICAL_FAILURES:
             # The filter refused an update that would break Σ (and left itself as it
             # was): the belief has diverged; report it rather than hand out NaN.
             self._numerical_failure = True
@@ -242,28 +258,27 @@ class EKFSLAMWrapper(gym.ObservationWrapper):
     ) -> tuple[Any, dict[str, Any]]:
         """The belief observation and the diagnostics, read off the live state."""
         f = self.filter
-        mean, cov, ids = f.belief_views()
-        obs, clipped = self._encode(mean, cov, ids, raw)
-        x, y, th = mean[:3].tolist()
-        tx, ty, tth = info["pose"].tolist()
-        err = [x - tx, y - ty, wrap_angle(th - tth)]
-        n = ids.shape[0]
-        if n:
-            truth = self._truth_in_state_order(ids)
-            diff = np.subtract(mean[3:], truth)
-            map_rmse = math.sqrt(float(np.dot(diff, diff)) / n)
-        else:
-            map_rmse = math.nan
-        pose_cov = cov[:3, :3].tolist()
-        info["pose_error"] = math.hypot(err[0], err[1])
-        info["heading_error"] = abs(err[2])
-        info["map_rmse"] = map_rmse
-        info["pose_nees"] = metrics.pose_nees_from_error(err, pose_cov)
-        info["landmarks_known"] = n
+        belief = filter_belief(f)
+        obs, clipped = self._encode(belief, raw)
+        diagnostics = self._diagnostics
+        belief_diagnostics(
+            *belief, info["pose"][None], self._true_landmarks, diagnostics, self._one
+        )
+        # (In DIAGNOSTICS order.)
+        pose_error, heading_error, map_rmse, pose_nees, pose_std = diagnostics.ravel().tolist()
+        self._entropy.batch(belief.P, belief.n, self._entropy_out, self._entropy_ok)
+        info["pose_error"] = pose_error
+        info["heading_error"] = heading_error
+        # Undefined metrics are absent, never NaN: the map error before the first
+        # landmark, the NEES of a covariance gone non-finite.
+        if not math.isnan(map_rmse):
+            info["map_rmse"] = map_rmse
+        if not math.isnan(pose_nees):
+            info["pose_nees"] = pose_nees
+        info["landmarks_known"] = f.n_landmarks
         info["rejected"] = f.n_rejected
-        info["entropy"] = self.belief_entropy(cov)
-        position_var = pose_cov[0][0] + pose_cov[1][1]
-        info["pose_std"] = 0.0 if position_var < 0.0 else math.sqrt(position_var)
+        info["entropy"] = self._entropy_out.item()
+        info["pose_std"] = pose_std
         info["belief_clipped"] = clipped
         info["consecutive_rejections"] = self._consecutive_rejections
         info["diverged"] = bool(
@@ -272,16 +287,6 @@ class EKFSLAMWrapper(gym.ObservationWrapper):
             or self._consecutive_rejections >= DIVERGENCE_REJECTIONS
         )
         return obs, info
-
-    def _truth_in_state_order(self, ids: np.ndarray) -> np.ndarray:
-        """The true positions of the landmarks in the state, flattened in state order
-        (the map error's reference), extended as landmarks join the state."""
-        n = ids.shape[0]
-        known = self._n_truth if n >= self._n_truth else 0  # 0: the filter was reset
-        if n > known:
-            self._truth_flat[2 * known : 2 * n] = self._truth_by_id[ids[known:]].ravel()
-            self._n_truth = n
-        return self._truth_flat[: 2 * n]
 
 
 REWARD_TERMS = ("information_gain", "pose_uncertainty", "collision", "step", "coverage")
@@ -329,37 +334,49 @@ class ActiveSLAMReward(gym.Wrapper):
     def __init__(self, env: gym.Env, weights: ActiveSLAMRewardWeights | None = None) -> None:
         super().__init__(env)
         self.weights = weights or ActiveSLAMRewardWeights()
-        if not isinstance(self.weights, ActiveSLAMRewardWeights):
+        # The step's signals, the previous step's (the baseline of the gains), and the
+        # terms and reward: the reward kernel's batch of one.
+        self._now = RewardSignals(
+            np.zeros(SINGLE), np.zeros(SINGLE), np.zeros(SINGLE, dtype=np.bool_), np.zeros(SINGLE)
+        )
+        self._last = np.zeros((SINGLE, 2))  # the previous entropy and swept fraction
+        self._terms = np.zeros((SINGLE, len(REWARD_TERMS)))
+        self._reward = np.zeros(SINGLE)
+        self._one = np.ones(SINGLE, dtype=np.bool_)  # the kernel's mask: the one world
+
+    @property
+    def weights(self) -> ActiveSLAMRewardWeights:
+        """The weights of the terms."""
+        return self._weights
+
+    @weights.setter
+    def weights(self, weights: ActiveSLAMRewardWeights) -> None:
+        if not isinstance(weights, ActiveSLAMRewardWeights):
             raise TypeError("weights must be an ActiveSLAMRewardWeights")
-        self._entropy = 0.0
-        self._swept = 0.0
+        self._weights = weights
+        self._weight_array = np.array([getattr(weights, name) for name in REWARD_TERMS])
 
     def reset(self, **kwargs: Any) -> tuple[Any, dict[str, Any]]:
         obs, info = self.env.reset(**kwargs)
         self._require_belief_info(info)
-        self._entropy = info["entropy"]
-        self._swept = info.get("swept_fraction", 0.0)
+        self._last[0] = (info["entropy"], _swept_fraction(info))
         info["raw_reward_terms"] = info.pop("reward_terms", {})
         info["reward_terms"] = dict.fromkeys(REWARD_TERMS, 0.0)
         return obs, info
 
     def step(self, action: Any) -> tuple[Any, SupportsFloat, bool, bool, dict[str, Any]]:
         obs, _, terminated, truncated, info = self.env.step(action)
-        w = self.weights
-        entropy = info["entropy"]
-        swept = info.get("swept_fraction", 0.0)
-        terms = {
-            "information_gain": w.information_gain * (self._entropy - entropy),
-            "pose_uncertainty": -w.pose_uncertainty * info["pose_std"],
-            "collision": -w.collision if info["collision"] else 0.0,
-            "step": -w.step,
-            "coverage": w.coverage * (swept - self._swept),
-        }
-        self._entropy = entropy
-        self._swept = swept
+        now = self._now
+        now.entropy[0] = info["entropy"]
+        now.pose_std[0] = info["pose_std"]
+        now.collision[0] = info["collision"]
+        now.swept_fraction[0] = _swept_fraction(info)
+        active_slam_reward(
+            self._weight_array, *now, self._last, self._terms, self._reward, self._one
+        )
         info["raw_reward_terms"] = info.pop("reward_terms", {})
-        info["reward_terms"] = terms
-        return obs, float(sum(terms.values())), terminated, truncated, info
+        info["reward_terms"] = dict(zip(REWARD_TERMS, self._terms[0].tolist(), strict=True))
+        return obs, self._reward.item(), terminated, truncated, info
 
     def _require_belief_info(self, info: dict[str, Any]) -> None:
         if "entropy" not in info:
@@ -369,3 +386,8 @@ class ActiveSLAMReward(gym.Wrapper):
                 "ActiveSLAMReward with a coverage weight must wrap a CoverageWrapper "
                 "(info has no swept_fraction)"
             )
+
+
+def _swept_fraction(info: dict[str, Any]) -> float:
+    """The swept share of the arena from a CoverageWrapper below, 0 without one."""
+    return info.get("swept_fraction", 0.0)

@@ -71,3 +71,22 @@ def pickled_twin_digests(env_id: str, seed: int, warmup: int, **kwargs: Any) -> 
     twin = pickle.loads(pickle.dumps(env))
     actions = [env.action_space.sample() for _ in range(100)]
     return digest([env.step(a) for a in actions]), digest([twin.step(a) for a in actions])
+
+
+def assert_same(a: Any, b: Any, where: str = "", exact_types: bool = True) -> None:
+    """Two rollouts' values (dicts, lists and tuples of arrays and scalars) equal bit
+    for bit, of the same dtypes and, with ``exact_types``, the same Python types (a
+    vector env's row of an info holds numpy scalars where the single env's holds
+    Python ones); ``where`` names the first difference."""
+    if isinstance(a, dict):
+        assert a.keys() == b.keys(), (where, sorted(set(a) ^ set(b)))
+        for key in a:
+            assert_same(a[key], b[key], f"{where}/{key}", exact_types)
+    elif isinstance(a, (list, tuple)):
+        assert len(a) == len(b), where
+        for i, (x, y) in enumerate(zip(a, b, strict=True)):
+            assert_same(x, y, f"{where}[{i}]", exact_types)
+    else:
+        assert not exact_types or type(a) is type(b), (where, type(a), type(b))
+        a, b = np.asarray(a), np.asarray(b)
+        assert a.dtype == b.dtype and np.array_equal(a, b), (where, a, b)

@@ -123,7 +123,7 @@ def test_active_slam_env_observes_coverage(observation):
         swept.append(info["swept_fraction"])
     assert np.all(np.diff(swept) >= 0.0) and swept[-1] > swept[0]
     env.reset(seed=3)
-    assert env.unwrapped._stack.env.grid.swept_fraction == pytest.approx(swept[0])
+    assert env.unwrapped._core.coverage.swept_fraction == pytest.approx(swept[0])
 
 
 def test_coverage_reward_pays_for_newly_swept_area():

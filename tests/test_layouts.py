@@ -7,16 +7,19 @@ import itertools
 import json
 import math
 
+import gymnasium as gym
 import numpy as np
 import pytest
 import yaml
 
+import slam_env  # noqa: F401  (registers the env IDs)
 from slam_env.config import EnvConfig, WorldConfig
 from slam_env.layouts import (
     LANDMARK_POST_RADIUS,
     PASSAGE_MARGIN,
     START_MARGIN,
     Layout,
+    _polygon_problem,
     _polygon_signed_distance,
     _preset_cached,
     _segment_distance,
@@ -420,3 +423,41 @@ def test_layout_for_dispatch(tmp_path) -> None:
 
 def test_post_radius_constant() -> None:
     assert pytest.approx(0.1) == LANDMARK_POST_RADIUS
+
+
+@pytest.mark.parametrize(
+    ("name", "content", "message"),
+    [
+        ("bad.yaml", "width: 10\nheight: [1,\nstart: 3\n", r"bad\.yaml', line 4: not valid YAML"),
+        ("bad.json", '{"width": 10,\n "height": }', r"bad\.json', line 2: not valid JSON"),
+        ("binary.yaml", b"\xff\xfe\x00", r"binary\.yaml' cannot be read: 'utf-8' codec"),
+        ("missing.yaml", None, r"missing\.yaml' cannot be read: No such file"),
+        ("folder.yml", "dir", r"folder\.yml' cannot be read: Is a directory"),
+        (
+            "short.json",
+            '{"width": 5, "height": 5, "start": [1, 1]}',
+            r"short\.json': layout 'start'",
+        ),
+    ],
+)
+def test_layout_file_errors_name_the_file(tmp_path, name, content, message) -> None:
+    path = tmp_path / name
+    if content == "dir":
+        path.mkdir()
+    elif isinstance(content, bytes):
+        path.write_bytes(content)
+    elif content is not None:
+        path.write_text(content)
+    with pytest.raises(ValueError, match=message):
+        load_layout(path)
+    # The env reports it the same way, before building anything.
+    with pytest.raises(ValueError, match=message):
+        gym.make("slam_env/Landmarks-v0", layout=str(path))
+
+
+def test_a_far_obstacle_is_not_taken_for_a_degenerate_one() -> None:
+    """Degeneracy is judged on the polygon's own size, wherever it lies."""
+    box = ((5e8, 5e8), (5e8 + 1.0, 5e8), (5e8 + 1.0, 5e8 + 1.0), (5e8, 5e8 + 1.0))
+    assert _polygon_problem(box) is None
+    assert "zero area" in _polygon_problem(((5e8, 5e8), (5e8 + 1.0, 5e8), (5e8 + 2.0, 5e8)))
+    assert "repeats" in _polygon_problem(((5e8, 5e8), (5e8, 5e8), (5e8 + 1.0, 5e8 + 1.0)))

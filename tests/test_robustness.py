@@ -101,14 +101,29 @@ def test_sb3_dummy_and_subproc_vec_envs_agree():
 @pytest.mark.parametrize(
     "make", [slam_env.env.LandmarksEnv, slam_env.active_slam.ActiveSLAMEnv], ids=["raw", "active"]
 )
-def test_step_before_reset_and_after_close(make):
-    env = make()
+def test_step_before_reset_and_lifecycle_after_close(make):
+    """As in Gymnasium's own envs: close releases the renderer and keeps the episode;
+    step, reset and render (which reopens the renderer) work after it."""
+    env = make(render_mode="rgb_array")
     with pytest.raises(gym.error.ResetNeeded):
         env.step(np.zeros(2))
+    twin = make(render_mode="rgb_array")
     env.reset(seed=0)
+    twin.reset(seed=0)
+    first = env.render()
+    raw = env.unwrapped
+    assert raw._renderer is not None
     env.close()
-    with pytest.raises(RuntimeError, match="closed"):
-        env.step(np.zeros(2))
+    assert raw._renderer is None
+    env.close()  # idempotent
+    a = np.array([0.5, 0.1], dtype=np.float32)
+    assert digest([env.step(a)]) == digest([twin.step(a)])
+    assert env.render().shape == first.shape and raw._renderer is not None
+    env.close()
+    assert digest([env.reset(seed=4)]) == digest([twin.reset(seed=4)])
+    assert digest([env.step(a)]) == digest([twin.step(a)])
+    twin.close()
+    env.close()
 
 
 @pytest.mark.parametrize(

@@ -9,7 +9,7 @@ Gaussian error with variance σ²,
   sample covariance  SE = σi σj / √(n − 1)     (independent components)
   Σ whitened²        χ²(ν): mean ν, SD √(2ν)  (ν large: normal approximation)
 plus a Kolmogorov–Smirnov test of the whitened errors against N(0, 1). Only numpy
-and the standard library are used (no scipy in the project's environment).
+and the standard library are used.
 """
 
 from __future__ import annotations
@@ -650,30 +650,27 @@ def reference_sense(sensor, pose, pos, ids, rng, los=None):
     draws = sensor.detection_prob < 1.0 or any(std)
     u = rng.random(n + 2 * d).tolist() if draws else [0.0] * (n + 2 * d)
     order = sorted(range(n), key=lambda i: ids[i])  # stable
-    found = []  # (row, r, φ, robot-frame x, y)
+    found = []  # (row, r, z0, z1): the true range and the noise-free measurement
     c, s = math.cos(th), math.sin(th)
     for j, i in enumerate(order):
         dx, dy = pos[i][0] - x, pos[i][1] - y
-        lx, ly = c * dx + s * dy, c * dy - s * dx
-        # np.hypot is C's hypot, as in the kernel (Python's math.hypot rounds otherwise)
-        r, phi = float(np.hypot(lx, ly)), math.atan2(ly, lx)
+        r, phi = math.sqrt(dx * dx + dy * dy), wrap_angle(math.atan2(dy, dx) - th)
         if r > sensor.max_range or (sensor.fov < 2 * PI and abs(phi) > sensor.fov / 2):
             continue
         if sensor.detection_prob < 1.0 and not u[j] < sensor.detection_prob:
             continue
         if los is not None and not los(np.array([x, y]), pos[i], i):
             continue
-        found.append((i, r, phi, lx, ly))
+        z = (r, phi) if sensor.model == "range_bearing" else (c * dx + s * dy, -s * dx + c * dy)
+        found.append((i, r, *z))
     if len(found) > d:
         nearest = sorted(range(len(found)), key=lambda j: (found[j][1], j))[:d]
         found = [found[j] for j in sorted(nearest)]
     z = []
-    for k, (_, r, phi, lx, ly) in enumerate(found):
+    for k, (_, _, z0, z1) in enumerate(found):
         e0, e1 = box_muller(u[n + 2 * k], u[n + 2 * k + 1]) if any(std) else (0.0, 0.0)
-        if sensor.model == "range_bearing":
-            z.append((r + e0 * std[0], wrap_angle(phi + e1 * std[1])))
-        else:
-            z.append((lx + e0 * std[0], ly + e1 * std[1]))
+        z1 += e1 * std[1]
+        z.append((z0 + e0 * std[0], wrap_angle(z1) if sensor.model == "range_bearing" else z1))
     rows = [f[0] for f in found]
     return np.array(z, dtype=np.float64).reshape(-1, 2), np.array([ids[i] for i in rows]), rows
 

@@ -13,9 +13,10 @@ from gymnasium.vector import AutoresetMode
 
 import slam_env  # noqa: F401  (registers the env IDs)
 from slam_env.vector import SlamVectorEnv
-from tests.streams import digest
+from tests.streams import assert_same, digest
 
 LANDMARKS = "slam_env/Landmarks-v0"
+ACTIVE = "slam_env/ActiveSLAM-v0"
 
 # (env ID, options): the default world and non-default configs of every kind.
 CONFIGS = [
@@ -35,28 +36,23 @@ CONFIGS = [
     (LANDMARKS, {"motion_model": "velocity", "measurement_model": "cartesian"}),
     (LANDMARKS, {"preset": "rooms", "action_type": "discrete"}),
     (LANDMARKS, {"preset": "open", "max_detections": 3, "detection_prob": 0.7, "fov": 6.28}),
+    (ACTIVE, {}),
+    (ACTIVE, {"observation": "full", "n_landmarks": 6, "outlier_rate": 0.2, "kidnap_rate": 0.01}),
+    (ACTIVE, {"motion_model": "velocity", "measurement_model": "cartesian"}),
+    (ACTIVE, {"action_type": "discrete", "correction": "batch", "preset": "rooms"}),
 ]
 
 
 def _row(tree: Any, i: int) -> Any:
-    """Sub-env i's part of a batched observation or vector info (masks dropped)."""
+    """Sub-env i's part of a batched observation or vector info: the keys its masks
+    say it reported (the masks themselves dropped)."""
     if isinstance(tree, dict):
-        return {k: _row(v, i) for k, v in tree.items() if not k.startswith("_")}
+        return {
+            k: _row(v, i)
+            for k, v in tree.items()
+            if not k.startswith("_") and (f"_{k}" not in tree or tree[f"_{k}"][i])
+        }
     return tree[i]
-
-
-def _assert_same(a: Any, b: Any, where: str) -> None:
-    if isinstance(a, dict):
-        assert a.keys() == b.keys(), where
-        for key in a:
-            _assert_same(a[key], b[key], f"{where}/{key}")
-    elif isinstance(a, (list, tuple)):
-        assert len(a) == len(b), where
-        for k, (x, y) in enumerate(zip(a, b, strict=True)):
-            _assert_same(x, y, f"{where}[{k}]")
-    else:
-        a, b = np.asarray(a), np.asarray(b)
-        assert a.dtype == b.dtype and np.array_equal(a, b), where
 
 
 @pytest.mark.parametrize(("env_id", "options"), CONFIGS)
@@ -77,8 +73,8 @@ def test_sub_env_i_replays_the_single_env_seeded_s_plus_i(env_id: str, options: 
     obs, info = venv.reset(seed=seed)
     for i, env in enumerate(singles):
         o, inf = env.reset(seed=seed + i)
-        _assert_same(_row(obs, i), o, "reset obs")
-        _assert_same(_row(info, i), inf, "reset info")
+        assert_same(_row(obs, i), o, "reset obs", exact_types=False)
+        assert_same(_row(info, i), inf, "reset info", exact_types=False)
     done = [False] * b
     ends = 0
     for t in range(steps):
@@ -93,8 +89,8 @@ def test_sub_env_i_replays_the_single_env_seeded_s_plus_i(env_id: str, options: 
                 o, r, te, tr, inf = env.step(actions[i])
             done[i] = te or tr
             ends += done[i]
-            _assert_same(_row(obs, i), o, f"obs t={t} i={i}")
-            _assert_same(_row(info, i), inf, f"info t={t} i={i}")
+            assert_same(_row(obs, i), o, f"obs t={t} i={i}", exact_types=False)
+            assert_same(_row(info, i), inf, f"info t={t} i={i}", exact_types=False)
             assert (rewards[i], terminated[i], truncated[i]) == (r, te, tr), (t, i)
     assert ends >= 3 * b  # the streams crossed resets
     assert rewards.dtype == np.float64 and terminated.dtype == truncated.dtype == np.bool_
@@ -109,14 +105,15 @@ def _rollout(venv: gym.vector.VectorEnv, steps: int) -> list[Any]:
     return out
 
 
+@pytest.mark.parametrize("env_id", [LANDMARKS, ACTIVE])
 @pytest.mark.parametrize("mode", ["sync", "async"])
-def test_sync_and_async_give_the_native_stream(mode: str) -> None:
-    native = _rollout(gym.make_vec(LANDMARKS, num_envs=2, max_episode_steps=40), 120)
+def test_sync_and_async_give_the_native_stream(env_id: str, mode: str) -> None:
+    native = _rollout(gym.make_vec(env_id, num_envs=2, max_episode_steps=40), 120)
     other = _rollout(
-        gym.make_vec(LANDMARKS, num_envs=2, vectorization_mode=mode, max_episode_steps=40), 120
+        gym.make_vec(env_id, num_envs=2, vectorization_mode=mode, max_episode_steps=40), 120
     )
     for t, (a, b) in enumerate(zip(native, other, strict=True)):
-        _assert_same(list(a), list(b), f"step {t}")
+        assert_same(list(a), list(b), f"step {t}")
     assert digest(native) == digest(other)
 
 
@@ -144,13 +141,13 @@ def test_same_step_autoreset_reports_the_final_observation_and_info() -> None:
     for t in range(5):
         a = same.step(actions)
         b = sync.step(actions)
-        _assert_same([a[0], *a[1:4]], [b[0], *b[1:4]], f"step {t}")
+        assert_same([a[0], *a[1:4]], [b[0], *b[1:4]], f"step {t}")
         assert a[4].keys() == b[4].keys()
     info = a[4]
     assert a[3].all() and info["_final_obs"].all()
     for i in range(2):
-        _assert_same(info["final_obs"][i], b[4]["final_obs"][i], "final_obs")
-    _assert_same(info["final_info"], b[4]["final_info"], "final_info")
+        assert_same(info["final_obs"][i], b[4]["final_obs"][i], "final_obs")
+    assert_same(info["final_info"], b[4]["final_info"], "final_info")
     # the returned observation is the next episode's first one
     assert (a[0]["odometry"] == 0.0).all()
 
@@ -210,3 +207,11 @@ def test_render_returns_a_frame_per_sub_env_and_close_releases_them() -> None:
     assert not np.array_equal(frames[0], frames[1])  # two different random worlds
     venv.close()
     assert venv.closed
+
+
+def test_the_budget_counts_every_sub_env() -> None:
+    """One sub-env fits, but the memory of many is refused before anything is built."""
+    options = {"n_landmarks": 1000, "width": 100.0, "height": 100.0, "landmark_spacing": 0.5}
+    gym.make_vec(LANDMARKS, num_envs=1, **options).close()
+    with pytest.raises(ValueError, match="memory"):
+        gym.make_vec(LANDMARKS, num_envs=100_000, **options)

@@ -11,6 +11,7 @@ import sys
 import textwrap
 
 import numpy as np
+import pymunk
 import pytest
 
 from slam_env.config import RobotConfig, WorldConfig
@@ -21,7 +22,14 @@ from slam_env.layouts import (
     preset_layout,
     random_layout,
 )
-from slam_env.world import _MOTION_FILTER, CONTACT_BISECTIONS, LANDMARK_POST_RADIUS, World
+from slam_env.world import (
+    _ALL,
+    _MOTION_FILTER,
+    CAT_ROBOT,
+    CONTACT_BISECTIONS,
+    LANDMARK_POST_RADIUS,
+    World,
+)
 
 ROBOT = RobotConfig()  # radius 0.25 m, max speed 1 m/s
 R = ROBOT.radius
@@ -493,20 +501,36 @@ def test_space_shows_the_robot_at_its_pose() -> None:
     assert (body.position.x, body.position.y, body.angle) == clone.pose
 
 
-def test_landmark_visible_from_matches_line_of_sight() -> None:
+def pymunk_sees(w: World, origin, target, landmark_index: int) -> bool:
+    """The occlusion test asked of pymunk's public API: a segment query that skips the
+    robot and the landmark's own post (its shape filter group is index + 1)."""
+    query_filter = pymunk.ShapeFilter(group=landmark_index + 1, mask=_ALL & ~CAT_ROBOT)
+    o, t = (float(origin[0]), float(origin[1])), (float(target[0]), float(target[1]))
+    return w.space.segment_query_first(o, t, 0.0, query_filter) is None
+
+
+def test_line_of_sight_is_pymunks_segment_query() -> None:
     w = World(preset_layout("cluttered", WorldConfig()), ROBOT, DT, SUBSTEPS, T)
     rng = np.random.default_rng(7)
     pos = w.landmark_positions
+    blocked = 0
     for _ in range(500):
         x, y = rng.uniform(0, w.layout.width), rng.uniform(0, w.layout.height)
         i = int(rng.integers(len(pos)))
-        assert w._landmark_visible_from(x, y, i) == w.line_of_sight((x, y), pos[i], i)
+        expected = pymunk_sees(w, (x, y), pos[i], i)
+        assert w._landmark_visible_from(x, y, i) == expected
+        assert w.line_of_sight((x, y), pos[i], i) == expected
+        assert w.line_of_sight((x, y), pos[i], i - len(pos)) == expected  # counted from the end
+        blocked += not expected
+    assert 50 < blocked < 450
+    with pytest.raises(IndexError):
+        w.line_of_sight((1.0, 1.0), pos[0], len(pos))
 
 
 @pytest.mark.parametrize("how", ["pickle", "deepcopy"])
-def test_direct_queries_work_on_copies(how) -> None:
-    """The C structs of the direct Chipmunk queries are rebuilt by each copy: its
-    occlusion test and clearance still answer like pymunk's own queries."""
+def test_queries_work_on_copies(how) -> None:
+    """A copied world's occlusion test, scan and clearance answer like pymunk's queries
+    on the copy's own space."""
     w = World(preset_layout("cluttered", WorldConfig()), ROBOT, DT, SUBSTEPS, T)
     clone = pickle.loads(pickle.dumps(w)) if how == "pickle" else copy.deepcopy(w)
     del w  # the clone must not depend on the original's memory
@@ -517,7 +541,7 @@ def test_direct_queries_work_on_copies(how) -> None:
     for _ in range(300):
         x, y = float(rng.uniform(0.3, width - 0.3)), float(rng.uniform(0.3, height - 0.3))
         i = int(rng.integers(len(pos)))
-        assert clone._landmark_visible_from(x, y, i) == clone.line_of_sight((x, y), pos[i], i)
+        assert clone._landmark_visible_from(x, y, i) == pymunk_sees(clone, (x, y), pos[i], i)
         reach = float(rng.uniform(0.05, 0.6))
         hit = clone.space.point_query_nearest((x, y), reach, _MOTION_FILTER)
         clearance = clone._clearance(x, y, reach)
@@ -551,3 +575,20 @@ def test_range_scan_measures_the_free_distance() -> None:
     # Posts and obstacles block beams too: the box [6, 7]² seen from (3, 6.5).
     (box,) = w.range_scan(3.0, 6.5, 0.0, (0.0,), 5.0)
     assert box == pytest.approx(3.0, abs=1e-9)
+
+
+def test_range_scan_is_pymunks_segment_query() -> None:
+    w = World(preset_layout("rooms", WorldConfig()), ROBOT, DT, SUBSTEPS, T)
+    rng = np.random.default_rng(9)
+    angles = tuple(2.0 * math.pi * k / 16 for k in range(16))
+    short = 0
+    for _ in range(100):
+        x, y = float(rng.uniform(0.3, 15.7)), float(rng.uniform(0.3, 15.7))
+        theta, reach = float(rng.uniform(-math.pi, math.pi)), float(rng.uniform(0.5, 5.0))
+        scan = w.range_scan(x, y, theta, angles, reach)
+        for a, distance in zip(angles, scan, strict=True):
+            end = (x + reach * math.cos(theta + a), y + reach * math.sin(theta + a))
+            hit = w.space.segment_query_first((x, y), end, 0.0, _MOTION_FILTER)
+            assert distance == (reach if hit is None else hit.alpha * reach)
+            short += hit is not None
+    assert short > 100

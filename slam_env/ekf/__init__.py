@@ -1,4 +1,5 @@
-"""EKF-SLAM with known correspondences, pure numpy (no gymnasium, no pymunk).
+"""EKF-SLAM with known correspondences (no gymnasium, no pymunk): numpy and the
+compiled kernels of :mod:`slam_env.kernels`.
 
     from slam_env.ekf import EKFSLAM, chi2_gate
     f = EKFSLAM(motion_model="odometry", measurement_model="range_bearing",
@@ -12,6 +13,7 @@ See :class:`slam_env.ekf.filter.EKFSLAM` for the contract and
 :mod:`slam_env.ekf.models` for the models, their Jacobians and inverse models.
 """
 
+from slam_env.ekf.chi2 import chi2_gate, chi2_ppf
 from slam_env.ekf.filter import (
     CORRECTED,
     CORRECTION_MODES,
@@ -20,8 +22,7 @@ from slam_env.ekf.filter import (
     REJECTED,
     Status,
     UpdateResult,
-    chi2_gate,
-    chi2_ppf,
+    kernel_config,
 )
 from slam_env.ekf.models import MEASUREMENT_MODELS, MOTION_MODELS
 
@@ -37,4 +38,5 @@ __all__ = [
     "UpdateResult",
     "chi2_gate",
     "chi2_ppf",
+    "kernel_config",
 ]

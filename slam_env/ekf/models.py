@@ -1,7 +1,11 @@
-"""Motion and measurement models of the seeds, their Jacobians and inverse models.
+"""Motion and measurement models of the seeds, their Jacobians and inverse models,
+as functions of numpy arrays.
 
-Pure functions of numpy arrays; the filter and the env's odometry sensor both use
-the noise covariances defined here, so a noise-matched filter is matched exactly.
+The equations themselves are written once, as the scalar compiled functions of
+:mod:`slam_env.kernels.models` that the filter's kernels and the odometry sensor call;
+these are their array forms, for tests, planners and users. The filter and the env's
+odometry sensor use the same noise covariances, so a noise-matched filter is matched
+exactly.
 
 Conventions
 -----------
@@ -20,39 +24,26 @@ Conventions
   ``H_x = ∂h/∂pose`` (2×3) and ``H_m = ∂h/∂m`` (2×2). The inverse model
   ``m = h⁻¹(z, pose)`` has ``L = ∂h⁻¹/∂pose`` (2×3) and ``W = ∂h⁻¹/∂z`` (2×2)
   (seed 000 §2.2).
-* ``*_linearise`` are scalar fast paths (plain floats in, plain floats out) of
-  ``h`` and ``[H_x, H_m]`` for one landmark: the filter's sequential correction calls
-  them once per observation, where building small numpy arrays would cost more than
-  the arithmetic.
+* ``*_linearise`` are scalar forms (plain floats in, plain floats out) of the
+  prediction and of ``h`` with ``[H_x, H_m]`` for one landmark.
 """
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
 
-from slam_env.geometry import wrap_angle
-
-_TWO_PI = 2.0 * math.pi
-
-
-def _wrap(a: float) -> float:
-    return wrap_angle(a)  # half-open [−π, π) even at round-off
-
+from slam_env.kernels import models as km
 
 # --------------------------------------------------------------------------- noise
 
 
 def odometry_action_variances(u, alphas) -> tuple[float, float, float]:
-    """The diagonal of M (see :func:`odometry_action_cov`) as Python floats, for
-    callers that work on a 3-vector without numpy (the odometry sensor's hot path)."""
-    rot1, trans, rot2 = float(u[0]), float(u[1]), float(u[2])
+    """The diagonal of M (see :func:`odometry_action_cov`) as Python floats."""
     a1, a2, a3, a4 = map(float, alphas)
-    r1, t, r2 = rot1 * rot1, trans * trans, rot2 * rot2
-    return (a1 * r1 + a2 * t, a3 * t + a4 * (r1 + r2), a1 * r2 + a2 * t)
+    return km.odometry_variances(float(u[0]), float(u[1]), float(u[2]), a1, a2, a3, a4)
 
 
 def odometry_action_cov(u, alphas) -> np.ndarray:
@@ -66,9 +57,8 @@ def odometry_action_cov(u, alphas) -> np.ndarray:
 
 def velocity_control_variances(u, noise) -> tuple[float, float]:
     """The diagonal of Σu (see :func:`velocity_control_cov`) as Python floats."""
-    dp, dth = float(u[0]), float(u[1])
     sp, sth, bp, bth = map(float, noise)
-    return (sp * sp + bp * dp * dp, sth * sth + bth * dth * dth)
+    return km.velocity_variances(float(u[0]), float(u[1]), sp, sth, bp, bth)
 
 
 def velocity_control_cov(u, noise) -> np.ndarray:
@@ -82,15 +72,21 @@ def velocity_control_cov(u, noise) -> np.ndarray:
 # --------------------------------------------------------------------------- motion
 
 
+def _pose_floats(pose) -> tuple[float, float, float]:
+    return float(pose[0]), float(pose[1]), float(pose[2])
+
+
+def _pose_jacobian(a: float, b: float) -> np.ndarray:
+    """G = [[1, 0, a], [0, 1, b], [0, 0, 1]], the pose Jacobian of both motion models."""
+    return np.array([[1.0, 0.0, a], [0.0, 1.0, b], [0.0, 0.0, 1.0]])
+
+
 def odometry_motion(pose, u) -> np.ndarray:
     """g(pose, u) for u = (δrot1, δtr, δrot2) (seed 000): the next pose (3,).
 
     x += δtr·cos(θ + δrot1), y += δtr·sin(θ + δrot1), θ = wrap(θ + δrot1 + δrot2).
     """
-    x, y, th = float(pose[0]), float(pose[1]), float(pose[2])
-    rot1, trans, rot2 = float(u[0]), float(u[1]), float(u[2])
-    a = th + rot1
-    return np.array([x + trans * math.cos(a), y + trans * math.sin(a), _wrap(a + rot2)])
+    return np.array(km.odometry_motion(*_pose_floats(pose), float(u[0]), float(u[1]), float(u[2])))
 
 
 def odometry_jacobians(pose, u) -> tuple[np.ndarray, np.ndarray]:
@@ -99,12 +95,8 @@ def odometry_jacobians(pose, u) -> tuple[np.ndarray, np.ndarray]:
     G = [[1, 0, −δtr·sin(θ+δrot1)], [0, 1, δtr·cos(θ+δrot1)], [0, 0, 1]]
     V = [[−δtr·sin(θ+δrot1), cos(θ+δrot1), 0], [δtr·cos(θ+δrot1), sin(θ+δrot1), 0], [1, 0, 1]]
     """
-    th = float(pose[2])
-    rot1, trans = float(u[0]), float(u[1])
-    c, s = math.cos(th + rot1), math.sin(th + rot1)
-    G = np.array([[1.0, 0.0, -trans * s], [0.0, 1.0, trans * c], [0.0, 0.0, 1.0]])
-    V = np.array([[-trans * s, c, 0.0], [trans * c, s, 0.0], [1.0, 0.0, 1.0]])
-    return G, V
+    a, b, c, s = km.odometry_jacobian(float(pose[2]), float(u[0]), float(u[1]))
+    return _pose_jacobian(a, b), np.array([[a, c, 0.0], [b, s, 0.0], [1.0, 0.0, 1.0]])
 
 
 def velocity_motion(pose, u) -> np.ndarray:
@@ -112,9 +104,7 @@ def velocity_motion(pose, u) -> np.ndarray:
 
     x += Δp·cos θ, y += Δp·sin θ, θ = wrap(θ + Δθ).
     """
-    x, y, th = float(pose[0]), float(pose[1]), float(pose[2])
-    dp, dth = float(u[0]), float(u[1])
-    return np.array([x + dp * math.cos(th), y + dp * math.sin(th), _wrap(th + dth)])
+    return np.array(km.velocity_motion(*_pose_floats(pose), float(u[0]), float(u[1])))
 
 
 def velocity_jacobians(pose, u) -> tuple[np.ndarray, np.ndarray]:
@@ -123,58 +113,32 @@ def velocity_jacobians(pose, u) -> tuple[np.ndarray, np.ndarray]:
     A = [[1, 0, −Δp·sin θ], [0, 1, Δp·cos θ], [0, 0, 1]]
     B = [[cos θ, 0], [sin θ, 0], [0, 1]]
     """
-    th = float(pose[2])
-    dp = float(u[0])
-    c, s = math.cos(th), math.sin(th)
-    A = np.array([[1.0, 0.0, -dp * s], [0.0, 1.0, dp * c], [0.0, 0.0, 1.0]])
-    B = np.array([[c, 0.0], [s, 0.0], [0.0, 1.0]])
-    return A, B
+    a, b, c, s = km.velocity_jacobian(float(pose[2]), float(u[0]))
+    return _pose_jacobian(a, b), np.array([[c, 0.0], [s, 0.0], [0.0, 1.0]])
 
 
 def odometry_linearise(
     x: float, y: float, th: float, u, alphas
 ) -> tuple[float, float, float, float, float, tuple[float, ...]]:
-    """Scalar fast path of the odometry prediction: ``(x', y', θ', a, b, R)``.
+    """Scalar form of the odometry prediction: ``(x', y', θ', a, b, R)``.
 
     The next pose g(pose, u); G = ∂g/∂pose = [[1, 0, a], [0, 1, b], [0, 0, 1]]; and
     R_x = V M Vᵀ as its upper triangle (r00, r01, r02, r11, r12, r22).
     """
-    rot1, trans, rot2 = u
-    a1, a2, a3, a4 = alphas
-    r1, t2, r2 = rot1 * rot1, trans * trans, rot2 * rot2
-    m0 = a1 * r1 + a2 * t2
-    m1 = a3 * t2 + a4 * (r1 + r2)
-    m2 = a1 * r2 + a2 * t2
-    h = th + rot1
-    c, s = math.cos(h), math.sin(h)
-    ts, tc = trans * s, trans * c
-    # V = [[−ts, c, 0], [tc, s, 0], [1, 0, 1]], R_x = V diag(m0, m1, m2) Vᵀ.
-    R = (
-        ts * ts * m0 + c * c * m1,
-        -ts * tc * m0 + c * s * m1,
-        -ts * m0,
-        tc * tc * m0 + s * s * m1,
-        tc * m0,
-        m0 + m2,
-    )
-    return x + tc, y + ts, _wrap(h + rot2), -ts, tc, R
+    out = km.odometry_predict(x, y, th, *map(float, u), *map(float, alphas))
+    return (*out[:5], out[5:])
 
 
 def velocity_linearise(
     x: float, y: float, th: float, u, noise
 ) -> tuple[float, float, float, float, float, tuple[float, ...]]:
-    """Scalar fast path of the velocity prediction: ``(x', y', θ', a, b, R)``.
+    """Scalar form of the velocity prediction: ``(x', y', θ', a, b, R)``.
 
     A = ∂f/∂pose = [[1, 0, a], [0, 1, b], [0, 0, 1]]; R_x = B Σu Bᵀ as its upper
     triangle (r00, r01, r02, r11, r12, r22).
     """
-    dp, dth = u
-    sp, sth, bp, bth = noise
-    v0 = sp * sp + bp * dp * dp
-    v1 = sth * sth + bth * dth * dth
-    c, s = math.cos(th), math.sin(th)
-    R = (c * c * v0, c * s * v0, 0.0, s * s * v0, 0.0, v1)
-    return x + dp * c, y + dp * s, _wrap(th + dth), -dp * s, dp * c, R
+    out = km.velocity_predict(x, y, th, *map(float, u), *map(float, noise))
+    return (*out[:5], out[5:])
 
 
 @dataclass(frozen=True)
@@ -183,13 +147,14 @@ class MotionModel:
 
     ``motion(pose, u) -> pose'``; ``jacobians(pose, u) -> (∂g/∂pose, ∂g/∂u)``;
     ``noise_cov(u, params) -> control covariance`` (M or Σu) so that
-    ``R_x = J_u · noise_cov · J_uᵀ``; ``control_dim`` is the length of u.
-    ``linearise(x, y, θ, u, params)`` is the scalar fast path the filter calls; it
-    relies on ∂g/∂pose having the form [[1, 0, a], [0, 1, b], [0, 0, 1]] (true of
-    both models: the heading enters the position only, nothing enters the heading).
+    ``R_x = J_u · noise_cov · J_uᵀ``; ``control_dim`` is the length of u;
+    ``linearise(x, y, θ, u, params)`` the scalar prediction (next pose, G by its two
+    free entries, R_x). ``code`` is the model's number in the kernels
+    (:data:`slam_env.kernels.models.ODOMETRY` / ``VELOCITY``).
     """
 
     name: str
+    code: int
     control_dim: int
     motion: Callable[..., np.ndarray]
     jacobians: Callable[..., tuple[np.ndarray, np.ndarray]]
@@ -200,6 +165,7 @@ class MotionModel:
 MOTION_MODELS: dict[str, MotionModel] = {
     "odometry": MotionModel(
         "odometry",
+        km.ODOMETRY,
         3,
         odometry_motion,
         odometry_jacobians,
@@ -208,6 +174,7 @@ MOTION_MODELS: dict[str, MotionModel] = {
     ),
     "velocity": MotionModel(
         "velocity",
+        km.VELOCITY,
         2,
         velocity_motion,
         velocity_jacobians,
@@ -220,45 +187,66 @@ MOTION_MODELS: dict[str, MotionModel] = {
 # --------------------------------------------------------------------------- measurement
 
 
-def _pose_floats(pose) -> tuple[float, float, float]:
-    return float(pose[0]), float(pose[1]), float(pose[2])
+def _many(what: int, model: int, pose, points, width: int) -> np.ndarray:
+    """:func:`slam_env.kernels.models.measurement_many` over the leading axes of
+    ``points: (..., 2)``; returns ``(..., width)``."""
+    pts = np.asarray(points, dtype=np.float64)
+    lead = pts.shape[:-1]
+    flat = np.ascontiguousarray(pts.reshape(-1, 2))
+    out = np.empty((flat.shape[0], width))
+    km.measurement_many(what, model, *_pose_floats(pose), flat, out)
+    return out.reshape(*lead, width)
+
+
+def _jacobian_blocks(rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(H_x (..., 2, 3), H_m (..., 2, 2)) from the rows of [H_x | H_m] (..., 10)."""
+    H = rows.reshape(*rows.shape[:-1], 2, 5)
+    return H[..., :3].copy(), H[..., 3:].copy()
+
+
+def _inverse_blocks(lw: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(L (..., 2, 3), W (..., 2, 2)) from (l02, l12, w00, w01, w10, w11) (..., 6)."""
+    lead = lw.shape[:-1]
+    L = np.zeros((*lead, 2, 3))
+    L[..., 0, 0] = 1.0
+    L[..., 1, 1] = 1.0
+    L[..., 0, 2] = lw[..., 0]
+    L[..., 1, 2] = lw[..., 1]
+    return L, lw[..., 2:].reshape(*lead, 2, 2).copy()
+
+
+def _linearise(
+    model: int,
+) -> Callable[..., tuple[float, float, tuple[float, ...], tuple[float, ...]]]:
+    def linearise(
+        x: float, y: float, th: float, mx: float, my: float
+    ) -> tuple[float, float, tuple[float, ...], tuple[float, ...]]:
+        if km.singular(model, x, y, mx, my):
+            raise ZeroDivisionError("the landmark is on the robot: h cannot be linearised")
+        zh0, zh1 = km.observe(model, x, y, th, mx, my)
+        rows = km.jacobian(model, x, y, th, mx, my)
+        return zh0, zh1, rows[:5], rows[5:]
+
+    return linearise
 
 
 def range_bearing_h(pose, m) -> np.ndarray:
     """z = h(pose, m) = [r, φ] for landmarks m: (..., 2) → (..., 2); φ wrapped."""
-    x, y, th = _pose_floats(pose)
-    m = np.asarray(m, dtype=float)
-    dx = m[..., 0] - x
-    dy = m[..., 1] - y
-    return np.stack([np.hypot(dx, dy), wrap_angle(np.arctan2(dy, dx) - th)], axis=-1)
+    return _many(km.H, km.RANGE_BEARING, pose, m, 2)
 
 
 def range_bearing_jacobians(pose, m) -> tuple[np.ndarray, np.ndarray]:
     """(H_x (..., 2, 3), H_m (..., 2, 2)) of the range-bearing model (seed 000 §2.3).
 
     H_x = [[−dx/√q, −dy/√q, 0], [dy/q, −dx/q, −1]], H_m = [[dx/√q, dy/√q], [−dy/q, dx/q]].
-    Undefined at q = 0 (a landmark on the robot).
+    Undefined at q = 0 (a landmark on the robot): NaN there.
     """
-    x, y, _ = _pose_floats(pose)
-    m = np.asarray(m, dtype=float)
-    dx = m[..., 0] - x
-    dy = m[..., 1] - y
-    q = dx * dx + dy * dy
-    r = np.sqrt(q)
-    Hm = np.stack([np.stack([dx / r, dy / r], -1), np.stack([-dy / q, dx / q], -1)], -2)
-    Hx = np.zeros((*dx.shape, 2, 3))
-    Hx[..., :, :2] = -Hm
-    Hx[..., 1, 2] = -1.0
-    return Hx, Hm
+    return _jacobian_blocks(_many(km.H_JACOBIAN, km.RANGE_BEARING, pose, m, 10))
 
 
 def range_bearing_inverse(pose, z) -> np.ndarray:
     """m = h⁻¹(z, pose) = t + r·[cos(φ + θ), sin(φ + θ)] for z: (..., 2) → (..., 2)."""
-    x, y, th = _pose_floats(pose)
-    z = np.asarray(z, dtype=float)
-    r = z[..., 0]
-    a = z[..., 1] + th
-    return np.stack([x + r * np.cos(a), y + r * np.sin(a)], axis=-1)
+    return _many(km.H_INVERSE, km.RANGE_BEARING, pose, z, 2)
 
 
 def range_bearing_inverse_jacobians(pose, z) -> tuple[np.ndarray, np.ndarray]:
@@ -267,52 +255,23 @@ def range_bearing_inverse_jacobians(pose, z) -> tuple[np.ndarray, np.ndarray]:
     L = [[1, 0, −r·sin(φ+θ)], [0, 1, r·cos(φ+θ)]], W = [[cos(φ+θ), −r·sin(φ+θ)],
     [sin(φ+θ), r·cos(φ+θ)]].
     """
-    th = float(pose[2])
-    z = np.asarray(z, dtype=float)
-    r = z[..., 0]
-    a = z[..., 1] + th
-    c, s = np.cos(a), np.sin(a)
-    L = np.zeros((*r.shape, 2, 3))
-    L[..., 0, 0] = 1.0
-    L[..., 1, 1] = 1.0
-    L[..., 0, 2] = -r * s
-    L[..., 1, 2] = r * c
-    W = np.stack([np.stack([c, -r * s], -1), np.stack([s, r * c], -1)], -2)
-    return L, W
+    return _inverse_blocks(_many(km.H_INVERSE_JACOBIAN, km.RANGE_BEARING, pose, z, 6))
 
 
-def range_bearing_linearise(
-    x: float, y: float, th: float, mx: float, my: float
-) -> tuple[float, float, tuple[float, ...], tuple[float, ...]]:
-    """Scalar fast path: (r̂, φ̂, row 0, row 1) with the rows of [H_x | H_m] (2×5).
-
-    Raises ``ZeroDivisionError`` when the landmark is on the robot (q = 0).
-    """
-    dx = mx - x
-    dy = my - y
-    q = dx * dx + dy * dy
-    r = math.sqrt(q)
-    a, b = dx / r, dy / r
-    c, d = dy / q, dx / q
-    phi = _wrap(math.atan2(dy, dx) - th)
-    return r, phi, (-a, -b, 0.0, a, b), (c, -d, -1.0, -c, d)
+range_bearing_linearise = _linearise(km.RANGE_BEARING)
+range_bearing_linearise.__doc__ = """Scalar form ``(x, y, θ, mx, my) -> (r̂, φ̂, row 0, row 1)``
+with the rows of [H_x | H_m] (2×5). Raises ``ZeroDivisionError`` when the landmark is
+on the robot (q = 0)."""
 
 
 def range_bearing_singular(pose, m) -> np.ndarray:
     """(...,) bool: where the range-bearing Jacobians are undefined (q = 0)."""
-    x, y, _ = _pose_floats(pose)
-    m = np.asarray(m, dtype=float)
-    return (m[..., 0] == x) & (m[..., 1] == y)
+    return _many(km.H_SINGULAR, km.RANGE_BEARING, pose, m, 1)[..., 0] != 0.0
 
 
 def cartesian_h(pose, m) -> np.ndarray:
     """z = R(θ)ᵀ(m − t) for landmarks m: (..., 2) → (..., 2) (seed 004)."""
-    x, y, th = _pose_floats(pose)
-    m = np.asarray(m, dtype=float)
-    c, s = math.cos(th), math.sin(th)
-    dx = m[..., 0] - x
-    dy = m[..., 1] - y
-    return np.stack([c * dx + s * dy, -s * dx + c * dy], axis=-1)
+    return _many(km.H, km.CARTESIAN, pose, m, 2)
 
 
 def cartesian_jacobians(pose, m) -> tuple[np.ndarray, np.ndarray]:
@@ -321,26 +280,12 @@ def cartesian_jacobians(pose, m) -> tuple[np.ndarray, np.ndarray]:
     With z = (z1, z2) = h: H_x = [[−cos θ, −sin θ, z2], [sin θ, −cos θ, −z1]],
     H_m = R(θ)ᵀ = [[cos θ, sin θ], [−sin θ, cos θ]].
     """
-    z = cartesian_h(pose, m)
-    c, s = math.cos(float(pose[2])), math.sin(float(pose[2]))
-    lead = z.shape[:-1]
-    Hx = np.empty((*lead, 2, 3))
-    Hx[..., 0, 0] = -c
-    Hx[..., 0, 1] = -s
-    Hx[..., 0, 2] = z[..., 1]
-    Hx[..., 1, 0] = s
-    Hx[..., 1, 1] = -c
-    Hx[..., 1, 2] = -z[..., 0]
-    Hm = np.broadcast_to(np.array([[c, s], [-s, c]]), (*lead, 2, 2)).copy()
-    return Hx, Hm
+    return _jacobian_blocks(_many(km.H_JACOBIAN, km.CARTESIAN, pose, m, 10))
 
 
 def cartesian_inverse(pose, z) -> np.ndarray:
     """m = h⁻¹(z, pose) = t + R(θ)·z for z: (..., 2) → (..., 2)."""
-    x, y, th = _pose_floats(pose)
-    z = np.asarray(z, dtype=float)
-    c, s = math.cos(th), math.sin(th)
-    return np.stack([x + c * z[..., 0] - s * z[..., 1], y + s * z[..., 0] + c * z[..., 1]], -1)
+    return _many(km.H_INVERSE, km.CARTESIAN, pose, z, 2)
 
 
 def cartesian_inverse_jacobians(pose, z) -> tuple[np.ndarray, np.ndarray]:
@@ -348,34 +293,17 @@ def cartesian_inverse_jacobians(pose, z) -> tuple[np.ndarray, np.ndarray]:
 
     L = [[1, 0, −sin θ·z1 − cos θ·z2], [0, 1, cos θ·z1 − sin θ·z2]], W = R(θ).
     """
-    th = float(pose[2])
-    z = np.asarray(z, dtype=float)
-    c, s = math.cos(th), math.sin(th)
-    lead = z.shape[:-1]
-    L = np.zeros((*lead, 2, 3))
-    L[..., 0, 0] = 1.0
-    L[..., 1, 1] = 1.0
-    L[..., 0, 2] = -s * z[..., 0] - c * z[..., 1]
-    L[..., 1, 2] = c * z[..., 0] - s * z[..., 1]
-    W = np.broadcast_to(np.array([[c, -s], [s, c]]), (*lead, 2, 2)).copy()
-    return L, W
+    return _inverse_blocks(_many(km.H_INVERSE_JACOBIAN, km.CARTESIAN, pose, z, 6))
 
 
-def cartesian_linearise(
-    x: float, y: float, th: float, mx: float, my: float
-) -> tuple[float, float, tuple[float, ...], tuple[float, ...]]:
-    """Scalar fast path: (ẑ1, ẑ2, row 0, row 1) with the rows of [H_x | H_m] (2×5)."""
-    c, s = math.cos(th), math.sin(th)
-    dx = mx - x
-    dy = my - y
-    z1 = c * dx + s * dy
-    z2 = -s * dx + c * dy
-    return z1, z2, (-c, -s, z2, c, s), (s, -c, -z1, -s, c)
+cartesian_linearise = _linearise(km.CARTESIAN)
+cartesian_linearise.__doc__ = """Scalar form ``(x, y, θ, mx, my) -> (ẑ1, ẑ2, row 0, row 1)``
+with the rows of [H_x | H_m] (2×5)."""
 
 
 def cartesian_singular(pose, m) -> np.ndarray:
     """(...,) bool: the cartesian model is linear in m and smooth everywhere."""
-    return np.zeros(np.shape(m)[:-1], dtype=bool)
+    return _many(km.H_SINGULAR, km.CARTESIAN, pose, m, 1)[..., 0] != 0.0
 
 
 @dataclass(frozen=True)
@@ -385,9 +313,12 @@ class MeasurementModel:
     ``angular[i]`` says whether component i of z is an angle, whose innovation is
     wrapped to [−π, π). ``singular(pose, m) -> (k,) bool`` marks landmarks at which
     ``h`` cannot be linearised (range-bearing: a landmark on the robot, q = 0).
+    ``code`` is the model's number in the kernels
+    (:data:`slam_env.kernels.models.RANGE_BEARING` / ``CARTESIAN``).
     """
 
     name: str
+    code: int
     h: Callable[..., np.ndarray]
     jacobians: Callable[..., tuple[np.ndarray, np.ndarray]]
     inverse: Callable[..., np.ndarray]
@@ -400,6 +331,7 @@ class MeasurementModel:
 MEASUREMENT_MODELS: dict[str, MeasurementModel] = {
     "range_bearing": MeasurementModel(
         "range_bearing",
+        km.RANGE_BEARING,
         range_bearing_h,
         range_bearing_jacobians,
         range_bearing_inverse,
@@ -410,6 +342,7 @@ MEASUREMENT_MODELS: dict[str, MeasurementModel] = {
     ),
     "cartesian": MeasurementModel(
         "cartesian",
+        km.CARTESIAN,
         cartesian_h,
         cartesian_jacobians,
         cartesian_inverse,

@@ -28,18 +28,26 @@ Conventions every kernel follows:
 
 :func:`kernel` compiles with numba's on-disk cache, so a second process pays no
 compile time; where no cache directory is writable it still works, compiling in each
-process, and says so once.
+process, and says so once. numba checks a cached kernel against its own source file
+only, not against the kernels it calls from other files, so the cache lives in a
+directory named by a hash of every kernel source (:func:`cache_directory`): an edit to
+any of them starts a fresh cache rather than running stale code.
 """
 
 from __future__ import annotations
 
+import contextlib
+import hashlib
+import os
+import shutil
 import warnings
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from pathlib import Path
 from typing import TypeVar
 
 import numba
 
-__all__ = ["KERNELS", "KernelCacheWarning", "kernel"]
+__all__ = ["KERNELS", "KernelCacheWarning", "cache_directory", "inline_kernel", "kernel"]
 
 F = TypeVar("F", bound=Callable)
 
@@ -54,13 +62,84 @@ KERNELS: list = []
 """The dispatchers of every kernel defined so far, for checking what was compiled."""
 
 
+def sources_hash(folder: Path) -> str:
+    """A short hash of the kernel sources in ``folder`` (every ``*.py``, by name)."""
+    digest = hashlib.sha256()
+    for path in sorted(folder.glob("*.py")):
+        digest.update(path.name.encode() + b"\0" + path.read_bytes() + b"\0")
+    return digest.hexdigest()[:16]
+
+
+def _writable(folder: Path) -> bool:
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        probe = folder / f".probe-{os.getpid()}"
+        probe.write_bytes(b"")
+        probe.unlink()
+    except OSError:
+        return False
+    return True
+
+
+def cache_directory() -> str | None:
+    """Where the kernels' numba cache lives: ``numba-<hash of the kernel sources>``
+    under ``$NUMBA_CACHE_DIR`` if set, else under the package's ``__pycache__``, else
+    under ``~/.cache/slam_env``; ``None`` if none is writable. In the package's own
+    ``__pycache__``, the caches of earlier versions of its sources are removed (they
+    can never be used again); shared places are left as they are."""
+    name = f"numba-{sources_hash(Path(__file__).parent)}"
+    own = Path(__file__).parent / "__pycache__"
+    roots = [Path(numba.config.CACHE_DIR)] if numba.config.CACHE_DIR else []
+    roots += [own, Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "slam_env"]
+    for root in roots:
+        if _writable(root / name):
+            if root == own:
+                for old in root.glob("numba-*"):
+                    if old.name != name:
+                        shutil.rmtree(old, ignore_errors=True)
+                for stale in (*root.glob("*.nbi"), *root.glob("*.nbc")):  # numba's own
+                    stale.unlink(missing_ok=True)
+            return str(root / name)
+    return None
+
+
+_CACHE = cache_directory()
+
+
+@contextlib.contextmanager
+def _caching_here() -> Iterator[None]:
+    """numba's user cache directory set to :data:`_CACHE` while a kernel is declared
+    (numba reads it then), and put back afterwards, for other libraries' caches."""
+    before = numba.config.CACHE_DIR
+    numba.config.CACHE_DIR = _CACHE or ""
+    try:
+        yield
+    finally:
+        numba.config.CACHE_DIR = before
+
+
 def kernel(fn: F) -> F:
     """``numba.njit(cache=True, nogil=True)``, falling back to an uncached compile
     (with one :class:`KernelCacheWarning` per process) where no cache directory is
     writable, e.g. a read-only install without ``NUMBA_CACHE_DIR``."""
+    return _compile(fn)
+
+
+def inline_kernel(fn: F) -> F:
+    """:func:`kernel`, and numba also inlines it into the kernels that call it
+    (``inline="always"``): for small functions that another kernel calls per item in a
+    loop. A compiled call increfs and decrefs each array it is passed (each array of a
+    NamedTuple too), about 10 ns apiece, which can cost more than the work itself."""
+    return _compile(fn, inline="always")
+
+
+def _compile(fn: F, **options: str) -> F:
     global _warned
     try:
-        compiled = numba.njit(cache=True, nogil=True)(fn)
+        if _CACHE is None:
+            raise RuntimeError("no writable cache directory")
+        with _caching_here():
+            compiled = numba.njit(cache=True, nogil=True, **options)(fn)
     except RuntimeError as exc:  # numba: "cannot cache function ...: no locator available"
         if not _warned:
             _warned = True
@@ -68,8 +147,8 @@ def kernel(fn: F) -> F:
                 f"slam_env: numba cannot write its cache ({exc}); kernels compile in each "
                 "process. Set NUMBA_CACHE_DIR to a writable directory to keep them.",
                 KernelCacheWarning,
-                stacklevel=2,
+                stacklevel=3,
             )
-        compiled = numba.njit(cache=False, nogil=True)(fn)
+        compiled = numba.njit(cache=False, nogil=True, **options)(fn)
     KERNELS.append(compiled)
     return compiled

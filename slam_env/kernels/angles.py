@@ -18,8 +18,17 @@ def wrap(angle: float) -> float:
     """An angle (rad) wrapped to [−π, π), half-open even at round-off; NaN stays NaN.
     numba's float ``%`` follows Python's (the sign of the divisor), so this agrees
     bit for bit with the same expression evaluated by Python or numpy."""
-    wrapped = (angle + math.pi) % TWO_PI - math.pi
-    return BELOW_PI if wrapped > BELOW_PI else wrapped
+    # Python's float % is fmod plus 2π for a negative remainder, and fmod is the
+    # identity within one turn: the angles a filter meets skip the library call.
+    w = angle + math.pi
+    if 0.0 <= w < TWO_PI:
+        r = w
+    elif -TWO_PI < w < 0.0:
+        r = w + TWO_PI
+    else:
+        r = w % TWO_PI
+    r -= math.pi
+    return BELOW_PI if r > BELOW_PI else r
 
 
 @kernel

@@ -1,4 +1,19 @@
-"""PROVISIONAL static geometry (the geometry engineer's exact version replaces it)."""
+"""The static geometry of B worlds as padded arrays, for the compiled segment queries
+of :mod:`slam_env.kernels.raycast`.
+
+A world's static shapes are the ones :class:`slam_env.world.World` puts in its pymunk
+space (:func:`static_shapes` lists them, and the world builds its space from that list):
+four boundary walls just outside the arena and the inner walls, as capsules of radius
+``wall_thickness``; the convex obstacles, as polygons of radius 0; one post of radius
+:data:`~slam_env.layouts.LANDMARK_POST_RADIUS` per landmark.
+
+:class:`StaticGeometry` holds them for B worlds, env axis first, each kind padded to a
+common capacity with live counts per world, together with the bounding-box tree that
+pymunk's space keeps over them. Every value is what Chipmunk (pymunk's C engine) has
+for the shape on a static body, computed with its arithmetic (:mod:`.chipmunk`), so
+that the kernels reproduce pymunk's queries bit for bit. :func:`set_world` writes one
+world from a :class:`~slam_env.layouts.Layout` and grows the capacities when it must.
+"""
 
 from __future__ import annotations
 
@@ -7,141 +22,213 @@ from typing import NamedTuple
 
 import numpy as np
 
-from slam_env.kernels import kernel
+from slam_env.kernels.chipmunk import (
+    bb_tree,
+    circle_box,
+    circle_centre,
+    polygon_data,
+    segment_data,
+)
+from slam_env.layouts import LANDMARK_POST_RADIUS, Layout
+
+__all__ = [
+    "N_CIRCLES",
+    "N_POLYGONS",
+    "N_SEGMENTS",
+    "StaticGeometry",
+    "StaticShapes",
+    "empty_geometry",
+    "set_world",
+    "static_shapes",
+]
+
+Point = tuple[float, float]
+
+# Columns of StaticGeometry.counts.
+N_SEGMENTS, N_POLYGONS, N_CIRCLES = 0, 1, 2
 
 
-class Geometry(NamedTuple):
-    segments: np.ndarray  # (B, S, 5) ax, ay, bx, by, radius
-    n_segments: np.ndarray  # (B,)
-    polygons: np.ndarray  # (B, P, V, 2) counter-clockwise
-    polygon_sizes: np.ndarray  # (B, P)
-    n_polygons: np.ndarray  # (B,)
-    circles: np.ndarray  # (B, C, 3) cx, cy, r
-    n_circles: np.ndarray  # (B,)
+class StaticShapes(NamedTuple):
+    """A world's static shapes as plain Python data, in the order the space gets them.
+
+    Attributes:
+        segments: ``((ax, ay), (bx, by), radius)`` capsules: the 4 boundary walls, then
+            the inner walls in layout order.
+        polygons: the obstacles' vertices as the layout gives them (counter-clockwise).
+        circles: ``((cx, cy), radius)``, the post of landmark row i at i.
+    """
+
+    segments: tuple[tuple[Point, Point, float], ...]
+    polygons: tuple[tuple[Point, ...], ...]
+    circles: tuple[tuple[Point, float], ...]
 
 
-def empty_geometry(num_envs: int) -> Geometry:
-    z = np.zeros(num_envs, dtype=np.int64)
-    return Geometry(
-        np.zeros((num_envs, 0, 5)),
-        z.copy(),
-        np.zeros((num_envs, 0, 0, 2)),
-        np.zeros((num_envs, 0), dtype=np.int64),
-        z.copy(),
-        np.zeros((num_envs, 0, 3)),
-        z.copy(),
+def static_shapes(layout: Layout, wall_thickness: float) -> StaticShapes:
+    """The static shapes of ``layout``. The boundary walls lie outside the arena, with
+    their inner face on its edge; inner walls have half-thickness ``wall_thickness``."""
+    t = float(wall_thickness)
+    W, H = layout.width, layout.height
+    corners = ((-t, -t), (W + t, -t), (W + t, H + t), (-t, H + t))
+    boundary = tuple((corners[i], corners[(i + 1) % 4], t) for i in range(4))
+    inner = tuple(((x0, y0), (x1, y1), t) for x0, y0, x1, y1 in layout.walls)
+    posts = tuple(((x, y), LANDMARK_POST_RADIUS) for x, y in layout.landmark_positions)
+    return StaticShapes(boundary + inner, tuple(layout.obstacles), posts)
+
+
+class StaticGeometry(NamedTuple):
+    """Static geometry of B worlds (float64 values, int64 indices and counts; rows past
+    a world's counts are padding that no kernel reads), as Chipmunk has it.
+
+    Shapes are numbered in the order the space gets them: segments, then polygons,
+    then circles (shape ``S + P + i`` is circle i of a world with S segments and P
+    polygons).
+
+    Attributes:
+        segments: (B, S, 7) capsules ``[ax, ay, bx, by, radius, nx, ny]``: end points,
+            half-thickness and Chipmunk's unit normal, the right-hand perpendicular of
+            b − a.
+        polygons: (B, P, V, 2) convex polygons' vertices, counter-clockwise, in the
+            order of Chipmunk's convex hull (:func:`~.chipmunk.chipmunk_hull`).
+        polygon_normals: (B, P, V, 2) the outward unit normal of the edge that ends at
+            vertex v (from vertex v − 1, cyclically): Chipmunk's splitting plane v.
+        polygon_sizes: (B, P) vertex count of each polygon.
+        circles: (B, C, 3) ``[cx, cy, r]``; circle i is the post of landmark row i.
+        tree: (B, T, 4) the space's bounding-box tree over a world's n shapes, its
+            2n − 1 nodes depth-first from the root (node 0), each
+            ``[child_a, child_b, -1, parent]`` for an inner node and
+            ``[-1, -1, shape, parent]`` for a leaf (the root's parent is −1).
+        tree_boxes: (B, T, 4) each node's box ``[left, bottom, right, top]``; a leaf's
+            is its shape's box.
+        counts: (B, 3) live segments, polygons and circles (columns
+            :data:`N_SEGMENTS`, :data:`N_POLYGONS`, :data:`N_CIRCLES`).
+    """
+
+    segments: np.ndarray
+    polygons: np.ndarray
+    polygon_normals: np.ndarray
+    polygon_sizes: np.ndarray
+    circles: np.ndarray
+    tree: np.ndarray
+    tree_boxes: np.ndarray
+    counts: np.ndarray
+
+    @property
+    def n_worlds(self) -> int:
+        return self.counts.shape[0]
+
+
+def empty_geometry(
+    n_worlds: int, *, segments: int = 4, polygons: int = 0, vertices: int = 3, circles: int = 0
+) -> StaticGeometry:
+    """B = ``n_worlds`` empty worlds with room for the given numbers of rows each (and
+    for the tree over them); :func:`set_world` grows them when a world needs more."""
+    sizes = {
+        "n_worlds": n_worlds,
+        "segments": segments,
+        "polygons": polygons,
+        "vertices": vertices,
+        "circles": circles,
+    }
+    for name, value in sizes.items():
+        if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)):
+            raise TypeError(f"{name} must be an int, got {type(value).__name__}")
+        least = 1 if name == "n_worlds" else 0
+        if value < least:
+            raise ValueError(f"{name} must be >= {least}, got {value}")
+    B, S, P, V, C = (int(v) for v in sizes.values())
+    T = max(2 * (S + P + C) - 1, 0)
+    return StaticGeometry(
+        segments=np.zeros((B, S, 7)),
+        polygons=np.zeros((B, P, V, 2)),
+        polygon_normals=np.zeros((B, P, V, 2)),
+        polygon_sizes=np.zeros((B, P), dtype=np.int64),
+        circles=np.zeros((B, C, 3)),
+        tree=np.full((B, T, 4), -1, dtype=np.int64),
+        tree_boxes=np.zeros((B, T, 4)),
+        counts=np.zeros((B, 3), dtype=np.int64),
     )
 
 
-def set_world(geometry: Geometry, b: int, layout, wall_thickness: float, post_radius: float):
-    t = wall_thickness
-    W, H = layout.width, layout.height
-    corners = ((-t, -t), (W + t, -t), (W + t, H + t), (-t, H + t))
-    segs = [(*corners[i], *corners[(i + 1) % 4], t) for i in range(4)]
-    segs += [(*w, t) for w in layout.walls]
-    polys = [list(p) for p in layout.obstacles]
-    circs = [(x, y, post_radius) for x, y in layout.landmark_positions]
-    B = geometry.n_segments.shape[0]
-    S = max(geometry.segments.shape[1], len(segs))
-    P = max(geometry.polygons.shape[1], len(polys))
-    V = max(geometry.polygons.shape[2], max((len(p) for p in polys), default=0))
-    C = max(geometry.circles.shape[1], len(circs))
-    g = geometry
-    if (g.segments.shape[1], g.polygons.shape[1], g.polygons.shape[2], g.circles.shape[1]) != (
-        S,
-        P,
-        V,
-        C,
+def set_world(
+    geometry: StaticGeometry, b: int, layout: Layout, wall_thickness: float
+) -> StaticGeometry:
+    """Write world ``b`` from ``layout``'s :func:`static_shapes`; return the geometry to
+    use from now on: ``geometry`` itself, written in place, or, when the layout needs
+    more rows than it has room for, new arrays (each short capacity at least doubled)
+    with every other world copied over. Other worlds' rows are never changed. Nothing
+    is written when an argument is refused."""
+    if not isinstance(geometry, StaticGeometry):
+        raise TypeError(f"geometry must be a StaticGeometry, got {type(geometry).__name__}")
+    if not isinstance(layout, Layout):
+        raise TypeError(f"layout must be a Layout, got {type(layout).__name__}")
+    if isinstance(b, (bool, np.bool_)) or not isinstance(b, (int, np.integer)):
+        raise TypeError(f"b must be an int, got {type(b).__name__}")
+    if not 0 <= b < geometry.n_worlds:
+        raise ValueError(f"b must be in [0, {geometry.n_worlds}), got {b}")
+    if isinstance(wall_thickness, (bool, np.bool_)) or not isinstance(
+        wall_thickness, (int, float, np.integer, np.floating)
     ):
-        seg = np.zeros((B, S, 5))
-        seg[:, : g.segments.shape[1]] = g.segments
-        pol = np.zeros((B, P, V, 2))
-        pol[:, : g.polygons.shape[1], : g.polygons.shape[2]] = g.polygons
-        psz = np.zeros((B, P), dtype=np.int64)
-        psz[:, : g.polygon_sizes.shape[1]] = g.polygon_sizes
-        cir = np.zeros((B, C, 3))
-        cir[:, : g.circles.shape[1]] = g.circles
-        g = Geometry(seg, g.n_segments, pol, psz, g.n_polygons, cir, g.n_circles)
-    g.segments[b, : len(segs)] = segs
-    g.n_segments[b] = len(segs)
-    for k, p in enumerate(polys):
-        g.polygons[b, k, : len(p)] = p
-        g.polygon_sizes[b, k] = len(p)
-    g.n_polygons[b] = len(polys)
-    g.circles[b, : len(circs)] = circs
-    g.n_circles[b] = len(circs)
+        raise TypeError(f"wall_thickness must be a number, got {type(wall_thickness).__name__}")
+    if not (math.isfinite(wall_thickness) and wall_thickness > 0):
+        raise ValueError(f"wall_thickness must be finite and > 0, got {wall_thickness!r}")
+
+    shapes = static_shapes(layout, wall_thickness)
+    segments = [segment_data(a, c, r) for a, c, r in shapes.segments]
+    polygons = [polygon_data(p) for p in shapes.polygons]
+    circles = [(*circle_centre(c), r) for c, r in shapes.circles]
+    boxes = [box for _, box in segments] + [box for _, _, box in polygons]
+    boxes += [circle_box(*row) for row in circles]
+    nodes, node_boxes = bb_tree(boxes)
+    g = _with_room(
+        geometry,
+        segments=len(segments),
+        polygons=len(polygons),
+        vertices=max((len(v) for v, _, _ in polygons), default=0),
+        circles=len(circles),
+    )
+
+    for array in (g.segments, g.polygons, g.polygon_normals, g.circles, g.tree_boxes):
+        array[b] = 0.0
+    g.polygon_sizes[b] = 0
+    g.tree[b] = -1
+    for i, (row, _) in enumerate(segments):
+        g.segments[b, i] = row
+    for k, (verts, normals, _) in enumerate(polygons):
+        n = len(verts)
+        g.polygons[b, k, :n] = verts
+        g.polygon_normals[b, k, :n] = normals
+        g.polygon_sizes[b, k] = n
+    for i, row in enumerate(circles):
+        g.circles[b, i] = row
+    if nodes:
+        g.tree[b, : len(nodes)] = nodes
+        g.tree_boxes[b, : len(nodes)] = node_boxes
+    g.counts[b] = (len(segments), len(polygons), len(circles))
     return g
 
 
-@kernel
-def _ray_circle(ax, ay, dx, dy, cx, cy, r) -> float:
-    fx, fy = ax - cx, ay - cy
-    a = dx * dx + dy * dy
-    bq = fx * dx + fy * dy
-    c = fx * fx + fy * fy - r * r
-    if c <= 0.0:
-        return 0.0
-    disc = bq * bq - a * c
-    if disc < 0.0 or a == 0.0:
-        return 2.0
-    t = (-bq - math.sqrt(disc)) / a
-    return t if 0.0 <= t <= 1.0 else 2.0
-
-
-@kernel
-def _ray_segment(ax, ay, dx, dy, px, py, qx, qy) -> float:
-    ex, ey = qx - px, qy - py
-    den = dx * ey - dy * ex
-    if den == 0.0:
-        return 2.0
-    wx, wy = px - ax, py - ay
-    t = (wx * ey - wy * ex) / den
-    s = (wx * dy - wy * dx) / den
-    if 0.0 <= t <= 1.0 and 0.0 <= s <= 1.0:
-        return t
-    return 2.0
-
-
-@kernel
-def _first_hit(g, b, ax, ay, bx, by, skip) -> float:
-    dx, dy = bx - ax, by - ay
-    best = 2.0
-    for k in range(g.n_segments[b]):
-        px, py, qx, qy, r = g.segments[b, k]
-        best = min(best, _ray_circle(ax, ay, dx, dy, px, py, r))
-        best = min(best, _ray_circle(ax, ay, dx, dy, qx, qy, r))
-        ex, ey = qx - px, qy - py
-        n = math.hypot(ex, ey)
-        if n > 0.0:
-            nx, ny = -ey / n * r, ex / n * r
-            best = min(best, _ray_segment(ax, ay, dx, dy, px + nx, py + ny, qx + nx, qy + ny))
-            best = min(best, _ray_segment(ax, ay, dx, dy, px - nx, py - ny, qx - nx, qy - ny))
-    for k in range(g.n_polygons[b]):
-        m = g.polygon_sizes[b, k]
-        inside = True
-        for v in range(m):
-            px, py = g.polygons[b, k, v]
-            qx, qy = g.polygons[b, k, (v + 1) % m]
-            if (qx - px) * (ay - py) - (qy - py) * (ax - px) < 0.0:
-                inside = False
-            best = min(best, _ray_segment(ax, ay, dx, dy, px, py, qx, qy))
-        if inside:
-            best = 0.0
-    for k in range(g.n_circles[b]):
-        if k == skip:
-            continue
-        best = min(
-            best,
-            _ray_circle(ax, ay, dx, dy, g.circles[b, k, 0], g.circles[b, k, 1], g.circles[b, k, 2]),
-        )
-    return best
-
-
-@kernel
-def line_of_sight(g, b, ax, ay, bx, by, skip) -> bool:
-    return _first_hit(g, b, ax, ay, bx, by, skip) > 1.0
-
-
-@kernel
-def ray_fraction(g, b, ax, ay, bx, by) -> float:
-    return min(_first_hit(g, b, ax, ay, bx, by, -1), 1.0)
+def _with_room(geometry: StaticGeometry, **need: int) -> StaticGeometry:
+    """``geometry``, or a copy with every capacity that is short of ``need`` at least
+    doubled (and at least ``need``)."""
+    g = geometry
+    have = {
+        "segments": g.segments.shape[1],
+        "polygons": g.polygons.shape[1],
+        "vertices": g.polygons.shape[2],
+        "circles": g.circles.shape[1],
+    }
+    if all(need[k] <= have[k] for k in have):
+        return geometry
+    room = {k: have[k] if need[k] <= have[k] else max(need[k], 2 * have[k]) for k in have}
+    grown = empty_geometry(g.n_worlds, **room)
+    S, P, V, C = have.values()
+    T = g.tree.shape[1]
+    grown.segments[:, :S] = g.segments
+    grown.polygons[:, :P, :V] = g.polygons
+    grown.polygon_normals[:, :P, :V] = g.polygon_normals
+    grown.polygon_sizes[:, :P] = g.polygon_sizes
+    grown.circles[:, :C] = g.circles
+    grown.tree[:, :T] = g.tree
+    grown.tree_boxes[:, :T] = g.tree_boxes
+    grown.counts[:] = g.counts
+    return grown

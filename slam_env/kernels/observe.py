@@ -96,3 +96,29 @@ def observe_raw(
                 everything = False
                 break
         out.all_seen[b] = everything
+
+
+@kernel
+def filter_inputs(
+    odometry: np.ndarray,
+    detections: np.ndarray,
+    ids: np.ndarray,
+    active: np.ndarray,
+    out_u: np.ndarray,
+    out_z: np.ndarray,
+    out_ids: np.ndarray,
+) -> None:
+    """What the filter reads of each active world's raw observation, as the belief
+    wrapper reads it from the observation itself (float32 values, widened exactly):
+    the control ``out_u`` (B, c) from ``odometry``, the measurements ``out_z``
+    (B, D, 2) from ``detections`` (B, 2D) and their IDs ``out_ids`` (B, D) int64 from
+    ``ids`` (B, D) (padding included: the counts say how many are real)."""
+    for b in range(odometry.shape[0]):
+        if not active[b]:
+            continue
+        for i in range(odometry.shape[1]):
+            out_u[b, i] = odometry[b, i]
+        for j in range(ids.shape[1]):
+            out_z[b, j, 0] = detections[b, 2 * j]
+            out_z[b, j, 1] = detections[b, 2 * j + 1]
+            out_ids[b, j] = int(ids[b, j])

@@ -1,10 +1,10 @@
 """Odometry of B worlds: the control that explains each motion, and a noisy reading of it.
 
-Model ``"odometry"`` (seed 000): u = (δrot1, δtr, δrot2) with the action-space noise
-M(u) = diag(α1·δrot1² + α2·δtr², α3·δtr² + α4·(δrot1² + δrot2²), α1·δrot2² + α2·δtr²).
-Model ``"velocity"`` (seed 004): u = (Δp, Δθ) with Σu = diag(σp² + βp·Δp², σθ² + βθ·Δθ²).
-The reading is ``u + sqrt(diag(C(u))) · ε`` at the true control, rotations wrapped, ε
-from Box–Muller pairs of the step's uniforms (:func:`odometry_uniforms` of them).
+Model ``"odometry"`` (seed 000): u = (δrot1, δtr, δrot2) with the action-space noise M(u);
+model ``"velocity"`` (seed 004): u = (Δp, Δθ) with Σu (both in :mod:`.models`, which the
+filter uses too: a noise-matched filter is matched exactly). The reading is
+``u + sqrt(diag(C(u))) · ε`` at the true control, rotations wrapped, ε from Box–Muller
+pairs of the step's uniforms (:func:`odometry_uniforms` of them).
 """
 
 from __future__ import annotations
@@ -15,6 +15,7 @@ import numpy as np
 
 from slam_env.kernels import kernel
 from slam_env.kernels.angles import wrap
+from slam_env.kernels.models import odometry_variances, velocity_variances
 from slam_env.kernels.random import normal_pair
 
 HALF_PI = 0.5 * math.pi
@@ -62,25 +63,6 @@ def velocity_from_poses(
 
 
 @kernel
-def odometry_variances(
-    rot1: float, trans: float, rot2: float, alphas: np.ndarray
-) -> tuple[float, float, float]:
-    """The diagonal of M(u) for u = (δrot1, δtr, δrot2), α = (α1, α2, α3, α4)."""
-    r1, t, r2 = rot1 * rot1, trans * trans, rot2 * rot2
-    return (
-        alphas[0] * r1 + alphas[1] * t,
-        alphas[2] * t + alphas[3] * (r1 + r2),
-        alphas[0] * r2 + alphas[1] * t,
-    )
-
-
-@kernel
-def velocity_variances(dp: float, dth: float, noise: np.ndarray) -> tuple[float, float]:
-    """The diagonal of Σu for u = (Δp, Δθ), noise = (σp, σθ, βp, βθ)."""
-    return noise[0] * noise[0] + noise[2] * dp * dp, noise[1] * noise[1] + noise[3] * dth * dth
-
-
-@kernel
 def true_control(
     velocity_model: bool, x0: float, y0: float, th0: float, x1: float, y1: float, th1: float
 ) -> tuple[float, float, float]:
@@ -106,9 +88,9 @@ def noisy_control(
     ``offset`` (see :func:`odometry_uniforms`), rotations wrapped."""
     e0, e1 = normal_pair(uniforms[offset], uniforms[offset + 1])
     if velocity_model:
-        v0, v1 = velocity_variances(c0, c1, noise)
+        v0, v1 = velocity_variances(c0, c1, noise[0], noise[1], noise[2], noise[3])
         return c0 + math.sqrt(v0) * e0, wrap(c1 + math.sqrt(v1) * e1), 0.0
-    v0, v1, v2 = odometry_variances(c0, c1, c2, noise)
+    v0, v1, v2 = odometry_variances(c0, c1, c2, noise[0], noise[1], noise[2], noise[3])
     e2 = normal_pair(uniforms[offset + 2], uniforms[offset + 3])[0]
     return wrap(c0 + math.sqrt(v0) * e0), c1 + math.sqrt(v1) * e1, wrap(c2 + math.sqrt(v2) * e2)
 

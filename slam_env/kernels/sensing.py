@@ -21,15 +21,16 @@ always consumes the same number from each sub-env's stream.
 
 from __future__ import annotations
 
-import math
 from typing import NamedTuple
 
 import numpy as np
 
 from slam_env.kernels import kernel
 from slam_env.kernels.angles import wrap
-from slam_env.kernels.geometry import Geometry, line_of_sight, ray_fraction
+from slam_env.kernels.geometry import StaticGeometry
+from slam_env.kernels.models import CARTESIAN, RANGE_BEARING, observe, range_bearing_observe
 from slam_env.kernels.random import normal_pair
+from slam_env.kernels.raycast import beam_fraction, line_of_sight
 
 
 class SensorParams(NamedTuple):
@@ -64,30 +65,27 @@ def in_view(
     found: np.ndarray,
 ) -> int:
     """Steps 1 and 2 for the pose (x, y, θ): the rows of the landmarks in range, in
-    view and detected, in ID order, into ``rows``, with their true (r, φ, robot-frame
-    x, robot-frame y) into ``found``; returns how many."""
-    c, s = math.cos(theta), math.sin(theta)
+    view and detected, in ID order, into ``rows``, with their true range and their
+    noise-free measurement (r, z0, z1) into ``found``; returns how many."""
     p = params.detection_prob
+    model = CARTESIAN if params.cartesian else RANGE_BEARING
     k = 0
     for j in range(id_order.shape[0]):
         i = id_order[j]
-        dx = landmarks[i, 0] - x
-        dy = landmarks[i, 1] - y
-        lx = c * dx + s * dy  # R(θ)ᵀ (m − t): computed in the robot frame, the bearing
-        ly = c * dy - s * dx  # has no cancellation from subtracting θ
-        r = math.hypot(lx, ly)
+        mx, my = landmarks[i, 0], landmarks[i, 1]
+        # Visibility on the true range and bearing, the measurement the model's h.
+        r, phi = range_bearing_observe(x, y, theta, mx, my)
         if not r <= params.max_range:
             continue
-        phi = math.atan2(ly, lx)
         if not params.all_around and not (-params.half_fov <= phi <= params.half_fov):
             continue
         if p < 1.0 and not uniforms[j] < p:
             continue
+        z0, z1 = observe(model, x, y, theta, mx, my)
         rows[k] = i
         found[k, 0] = r
-        found[k, 1] = phi
-        found[k, 2] = lx
-        found[k, 3] = ly
+        found[k, 1] = z0
+        found[k, 2] = z1
         k += 1
     return k
 
@@ -96,7 +94,7 @@ def in_view(
 def _keep(rows: np.ndarray, found: np.ndarray, j: int, k: int) -> None:
     """Move candidate j to position k (k ≤ j): compaction in place."""
     rows[k] = rows[j]
-    for c in range(4):
+    for c in range(found.shape[1]):
         found[k, c] = found[j, c]
 
 
@@ -134,14 +132,11 @@ def emit_detections(
         e0, e1 = 0.0, 0.0
         if noisy:
             e0, e1 = normal_pair(uniforms[2 * n], uniforms[2 * n + 1])
-        if params.cartesian:
-            out_z[n, 0] = found[j, 2] + e0 * params.std0
-            out_z[n, 1] = found[j, 3] + e1 * params.std1
-        else:
-            # The noisy range is not clipped at 0 (that would bias it); the noisy
-            # bearing is wrapped again.
-            out_z[n, 0] = found[j, 0] + e0 * params.std0
-            out_z[n, 1] = wrap(found[j, 1] + e1 * params.std1)
+        out_z[n, 0] = found[j, 1] + e0 * params.std0
+        # The noisy bearing is wrapped again; the noisy range is not clipped at 0
+        # (that would bias it).
+        z1 = found[j, 2] + e1 * params.std1
+        out_z[n, 1] = z1 if params.cartesian else wrap(z1)
         out_rows[n] = rows[j]
         out_ids[n] = ids[rows[j]]
         n += 1
@@ -170,7 +165,7 @@ def sense_landmarks(
         poses: (B, 3) true poses (x, y, θ).
         landmarks: (B, N, 2) landmark positions; landmark_ids (B, N) their IDs;
             id_order (B, N) the rows in ascending ID order (stable).
-        geometry_fields: the fields of the B worlds' :class:`Geometry` (post i of
+        geometry_fields: the fields of the B worlds' :class:`StaticGeometry` (post i of
             world b is landmark row i), as a plain tuple (see :mod:`slam_env.kernels`).
         params_fields: the fields of the :class:`SensorParams`, a plain tuple.
         uniforms: (B, W) this step's uniforms; the scan reads columns
@@ -179,11 +174,11 @@ def sense_landmarks(
         out_z: (B, D, 2) measurements; out_ids (B, D) IDs; out_rows (B, D) landmark
             rows; out_count (B,) detections per world, first in each row block.
     """
-    geometry = Geometry(*geometry_fields)
+    geometry = StaticGeometry(*geometry_fields)
     params = SensorParams(*params_fields)
     n_rows = landmarks.shape[1]
     rows = np.empty(n_rows, dtype=np.int64)
-    found = np.empty((n_rows, 4))
+    found = np.empty((n_rows, 3))
     for b in range(poses.shape[0]):
         if not active[b]:
             continue
@@ -221,14 +216,11 @@ def proximity_scan(
     """The free fraction of each beam, in [0, 1]: out (B, beams) float32, beam k at
     ``beam_angles[k]`` (rad, robot frame) from the robot's centre, ``reach`` m long,
     stopped by the first wall, obstacle or post (``geometry_fields``: the fields of the
-    :class:`Geometry`, a plain tuple)."""
-    geometry = Geometry(*geometry_fields)
+    :class:`StaticGeometry`, a plain tuple)."""
+    geometry = StaticGeometry(*geometry_fields)
     for b in range(poses.shape[0]):
         if not active[b]:
             continue
         x, y, theta = poses[b, 0], poses[b, 1], poses[b, 2]
         for k in range(beam_angles.shape[0]):
-            a = theta + beam_angles[k]
-            ex = x + reach * math.cos(a)
-            ey = y + reach * math.sin(a)
-            out[b, k] = ray_fraction(geometry, b, x, y, ex, ey)
+            out[b, k] = beam_fraction(geometry, b, x, y, theta + beam_angles[k], reach)

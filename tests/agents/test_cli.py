@@ -14,8 +14,9 @@ import pytest
 import yaml
 
 import agents.demo as demo_module
+import slam_env
 from agents.base import RandomAgent
-from agents.cli import main
+from agents.cli import _env_option, main
 from agents.registry import agent_label, make_agent, make_env, parse_agent_specs
 
 SMALL = ["n_landmarks=5", "width=8.0", "height=8.0", "n_obstacles=1"]
@@ -39,6 +40,8 @@ def test_cli_evaluate(tmp_path, capsys):
     agents = ",".join(["random", *HEURISTICS])
     argv = ["evaluate", "--agents", agents, "--episodes", "2", "--seed", "3"]
     argv += ["--max-steps", "15", "--out", str(tmp_path), "--no-progress", *SMALL_ARGS]
+    # YAML 1.2 numbers: PyYAML alone reads 2e-1 as a string.
+    argv += ["--env-option", "dt=2e-1", "--env-option", "range_std=5E-2"]
     assert main(argv) == 0
     with open(tmp_path / "episodes.csv", newline="") as fh:
         rows = list(csv.DictReader(fh))
@@ -52,6 +55,8 @@ def test_cli_evaluate(tmp_path, capsys):
         "width": 8.0,
         "height": 8.0,
         "n_obstacles": 1,
+        "dt": 0.2,
+        "range_std": 0.05,
     }
     assert (tmp_path / "trajectories.png").is_file()
     assert (tmp_path / "metrics_over_time.png").is_file()
@@ -162,8 +167,89 @@ def test_bad_arguments_exit_2_with_a_message(argv, message, tmp_path, capsys):
     with pytest.raises(SystemExit) as exc:
         main([*argv, *(["--out", str(tmp_path)] if len(argv) > 1 else [])])
     assert exc.value.code == 2
-    assert message in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert message in err
+    assert len(err.splitlines()) == 1, err  # one line, no usage block
     assert not any(tmp_path.iterdir())  # nothing written
+
+
+@pytest.mark.parametrize(
+    ("text", "value"),
+    [
+        ("2e-1", 0.2),
+        ("1e-3", 0.001),
+        ("-1.5E+2", -150.0),
+        (".5", 0.5),
+        ("12", 12),
+        ("true", True),
+        ("[1, 2e-1]", [1, 0.2]),
+        ("rooms", "rooms"),
+        ("", None),
+    ],
+)
+def test_env_option_values_are_yaml_scalars(text, value):
+    assert _env_option(f"key={text}") == ("key", value)
+    assert type(_env_option(f"key={text}")[1]) is type(value)
+
+
+def test_version(capsys):
+    with pytest.raises(SystemExit) as exc:
+        main(["--version"])
+    assert exc.value.code == 0
+    assert capsys.readouterr().out.strip() == f"slam-env {slam_env.__version__}"
+
+
+def _user_error(argv, capsys) -> str:
+    with pytest.raises(SystemExit) as exc:
+        main(argv)
+    assert exc.value.code == 2
+    err = capsys.readouterr().err
+    assert len(err.splitlines()) == 1, err
+    return err
+
+
+def test_a_bad_layout_file_is_a_usage_error(tmp_path, capsys):
+    layout = tmp_path / "world.yaml"
+    layout.write_text("width: 10\nheight: [8,\n")
+    argv = ["evaluate", "--agents", "random", "--out", str(tmp_path / "out")]
+    err = _user_error([*argv, "--env-option", f"layout={layout}"], capsys)
+    assert "world.yaml', line 3: not valid YAML" in err
+    err = _user_error([*argv, "--env-option", f"layout={tmp_path / 'none.json'}"], capsys)
+    assert "none.json' cannot be read: No such file" in err
+
+
+def test_a_garbage_policy_file_is_a_usage_error(tmp_path, capsys):
+    policy = tmp_path / "policy.zip"
+    policy.write_bytes(b"not a zip file at all")
+    argv = ["demo", "--agent", f"ppo:{policy}", "--out", str(tmp_path / "out"), *SMALL_ARGS]
+    err = _user_error(argv, capsys)
+    assert "policy.zip is not a stable-baselines3 PPO model" in err
+
+
+@pytest.mark.parametrize("command", ["evaluate", "demo", "train"])
+@pytest.mark.parametrize("where", ["under-a-file", "read-only-filesystem"])
+def test_an_unwritable_out_is_refused_before_anything_runs(
+    command, where, tmp_path, capsys, monkeypatch
+):
+    import agents.demo
+    import agents.evaluation
+    import agents.training
+
+    def ran(*args, **kwargs):
+        raise AssertionError("ran before checking --out")
+
+    monkeypatch.setattr(agents.evaluation, "evaluate", ran)
+    monkeypatch.setattr(agents.demo, "demo", ran)
+    monkeypatch.setattr(agents.training, "train", ran)
+    (tmp_path / "file").write_text("")
+    out = str(tmp_path / "file" / "out") if where == "under-a-file" else "/proc/slam_env_out"
+    argv = {
+        "evaluate": ["evaluate", "--agents", "random"],
+        "demo": ["demo"],
+        "train": ["train"],
+    }[command]
+    err = _user_error([*argv, "--out", out], capsys)
+    assert f"--out {out!r}" in err
 
 
 def test_train_config_with_unknown_key_is_a_usage_error(tmp_path, capsys):

@@ -48,7 +48,7 @@ def test_detects_a_new_random_world_without_episode_start():
     swept_before = agent.memory.coverage.fraction_swept()
     obs, _ = env.reset(seed=2)
     agent.predict(obs)  # no episode_start: the layout object changed
-    assert agent.memory.layout is env.unwrapped.raw_env.layout
+    assert agent.memory.layout is env.unwrapped.layout
     assert agent.memory.coverage.fraction_swept() < swept_before
 
 

@@ -103,7 +103,7 @@ def test_is_an_sb3_style_predictor_that_notices_new_episodes():
     obs, _ = env.reset(seed=2)
     agent.predict(obs)  # no episode_start: a new world all the same
     assert agent.memory is not old
-    assert agent.memory.layout is env.unwrapped.raw_env.layout
+    assert agent.memory.layout is env.unwrapped.layout
 
 
 def test_runs_in_a_small_world_with_inner_walls():

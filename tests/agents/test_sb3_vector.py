@@ -11,6 +11,7 @@ from stable_baselines3 import PPO
 from stable_baselines3.common.vec_env import DummyVecEnv, VecMonitor
 
 from agents.sb3_vector import InfoRow, SB3VectorEnv, make_sb3_vec_env
+from tests.streams import assert_same
 
 ENV_ID = "slam_env/Landmarks-v0"
 
@@ -23,20 +24,6 @@ def _plain(info: Any) -> Any:
     return info
 
 
-def _assert_same(a: Any, b: Any, where: str) -> None:
-    if isinstance(a, dict):
-        assert a.keys() == b.keys(), (where, sorted(a), sorted(b))
-        for key in a:
-            _assert_same(a[key], b[key], f"{where}/{key}")
-    elif isinstance(a, list):
-        assert len(a) == len(b), where
-        for i, (x, y) in enumerate(zip(a, b, strict=True)):
-            _assert_same(x, y, f"{where}[{i}]")
-    else:
-        assert type(a) is type(b), (where, type(a), type(b))
-        assert np.array_equal(a, b), where
-
-
 @pytest.mark.parametrize("options", [{}, {"action_type": "discrete", "scan_beams": 4}])
 def test_rollouts_equal_dummy_vec_env_for_the_same_seeds(options: dict) -> None:
     n, episode = 3, 40
@@ -45,20 +32,20 @@ def test_rollouts_equal_dummy_vec_env_for_the_same_seeds(options: dict) -> None:
         [lambda: gym.make(ENV_ID, max_episode_steps=episode, **options) for _ in range(n)]
     )
     dummy.seed(7)
-    _assert_same(ours.reset(), dummy.reset(), "reset")
-    _assert_same(_plain(ours.reset_infos), _plain(dummy.reset_infos), "reset infos")
+    assert_same(ours.reset(), dummy.reset(), "reset")
+    assert_same(_plain(ours.reset_infos), _plain(dummy.reset_infos), "reset infos")
     dummy.action_space.seed(1)
     finished = 0
     for t in range(130):
         actions = np.stack([dummy.action_space.sample() for _ in range(n)])
         a = ours.step(actions)
         b = dummy.step(actions)
-        _assert_same(a[0], b[0], f"obs {t}")
+        assert_same(a[0], b[0], f"obs {t}")
         assert a[1].dtype == b[1].dtype and np.array_equal(a[1], b[1]), t
         assert np.array_equal(a[2], b[2]), t
         for i in range(n):
-            _assert_same(_plain(a[3][i]), _plain(b[3][i]), f"info {t} {i}")
-        _assert_same(_plain(ours.reset_infos), _plain(dummy.reset_infos), f"reset infos {t}")
+            assert_same(_plain(a[3][i]), _plain(b[3][i]), f"info {t} {i}")
+        assert_same(_plain(ours.reset_infos), _plain(dummy.reset_infos), f"reset infos {t}")
         finished += int(a[2].sum())
     assert finished == 3 * n  # every env crossed three resets, truncated
     assert ours.step(actions)[3][0]["TimeLimit.truncated"] is False

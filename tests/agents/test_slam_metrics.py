@@ -161,6 +161,26 @@ def test_vector_columns_match_a_row_by_row_read():
     assert vector_columns(infos, [], STEP_KEYS) is None
 
 
+def test_an_undefined_nees_is_absent_and_not_averaged():
+    # The env leaves pose_nees out where it is undefined; row by row and in columns
+    # it is read as NaN, never as the vector info's fill value 0.
+    rows = [step_info(1, 2.0), step_info(1, 4.0)]
+    infos = vector_step(rows, [False, False], rows)
+    vector = infos[0].vector_info
+    vector["_pose_nees"] = np.array([True, False])
+    columns, reported = vector_columns(infos, [], STEP_KEYS)
+    assert np.isnan(columns[1][1]) and columns[1][0] == 2.0
+    assert len(reported) == 2  # the masks of collision and landmarks_known only
+    del vector["pose_nees"], vector["_pose_nees"]
+    assert np.isnan(vector_columns(infos, [], STEP_KEYS)[0][1]).all()
+    tallies = EpisodeTallies(1)
+    tallies.add_infos([step_info(1, 2.0)])
+    tallies.add_infos([{"landmarks_known": 1, "collision": False}])
+    end = {"landmark_ids": np.arange(4), "landmarks_known": 1, "entropy": 0.0}
+    m = tallies.finish(0, {**end, "diverged": False})
+    assert m["mean_pose_nees"] == 2.0 and math.isnan(m["map_rmse"])
+
+
 class RecordingLogger:
     def __init__(self) -> None:
         self.values: list[tuple[str, float]] = []

@@ -215,3 +215,73 @@ def test_a_covariance_that_lost_definiteness_is_reported_and_changes_nothing(
     with pytest.raises(FloatingPointError, match="not positive definite"):
         f.update([[2.1, 0.12], [9.0, 0.0], [3.0, -0.4]], [0, 1, 3])
     same_snapshot(before, take_snapshot(f))
+
+
+@pytest.mark.parametrize(
+    ("call", "args", "match"),
+    [
+        ("predict", (np.array([0.1, 0.2, 0.0]) + 0j,), "u must be an array of numbers"),
+        ("predict", (np.array([True, False, True]),), "u must be an array of numbers"),
+        ("predict", (np.array(["0.1", "0.2", "0"]),), "u must be an array of numbers"),
+        ("predict", (np.array([0.1, 0.2, None], dtype=object),), "u must be an array of numbers"),
+        ("predict", ([0.1, 0.2, 1j],), "u must be an array of numbers"),
+        ("update", (np.array([[2.0, 0.1]]) + 0j, [1]), r"z must be a \(k, 2\) array of numbers"),
+        ("update", (np.array([[True, False]]), [1]), r"z must be a \(k, 2\) array of numbers"),
+        ("update", ([[2.0, None]], [1]), r"z must be a \(k, 2\) array of numbers"),
+        ("update", ([[2.0, 0.1]], np.array([1 + 0j])), "ids must be integers"),
+        ("update", ([[2.0, 0.1]], np.array(["1"])), "ids must be integers"),
+        ("update", ([[2.0, 0.1]], np.array([2**63], dtype=np.uint64)), "beyond the int64 range"),
+    ],
+)
+def test_values_that_are_not_real_numbers_are_refused_not_cast(
+    busy_filter, take_snapshot, same_snapshot, call, args, match
+):
+    before = take_snapshot(busy_filter)
+    with pytest.raises((TypeError, ValueError), match=match):
+        getattr(busy_filter, call)(*args)
+    same_snapshot(before, take_snapshot(busy_filter))
+
+
+@pytest.mark.parametrize(
+    ("changes", "error", "match"),
+    [
+        (dict(gate=np.complex128(5.0)), TypeError, "gate must be a number"),
+        (dict(alphas=(0.1, 0.1, 1j, 0.1)), TypeError, r"alphas\[2\] must be a number"),
+        (dict(measurement_cov=np.eye(2) + 0j), TypeError, "measurement_cov must be an array"),
+        (dict(initial_pose=np.zeros(3, dtype=bool)), TypeError, "initial_pose must be an array"),
+        (dict(measurement_cov=np.eye(2) * 1e301), ValueError, "overflow"),
+        (dict(initial_pose_cov=np.eye(3) * 1e305), ValueError, "overflow"),
+    ],
+)
+def test_configurations_that_are_not_real_or_overflow_are_refused(changes, error, match):
+    with pytest.raises(error, match=match):
+        EKFSLAM(**with_(**changes))
+
+
+def test_numpy_numbers_are_taken_as_numbers():
+    f = EKFSLAM(
+        **with_(
+            gate=np.float32(9.0),
+            alphas=np.array([0.01, 0.01, 0.01, 0.01], dtype=np.float32),
+            max_landmarks=np.int64(5),
+        )
+    )
+    f.predict(np.array([0.1, 0.5, 0.0], dtype=np.float32))
+    res = f.update(np.array([[2.0, 0.1]], dtype=np.float32), np.array([3], dtype=np.uint8))
+    assert res.status.tolist() == [1] and res.ids.dtype == np.int64
+    assert f.gate == pytest.approx(9.0)
+
+
+def test_the_belief_arrays_are_the_live_batched_state_read_only(busy_filter):
+    x, P, n, slot_to_id = busy_filter.belief_arrays()
+    assert x.shape == (1, 13) and P.shape == (1, 13, 13) and n.shape == (1,)
+    assert slot_to_id.shape == (1, 5) and n.dtype == slot_to_id.dtype == np.int64
+    d = busy_filter.dim
+    np.testing.assert_array_equal(x[0, :d], busy_filter.mean)
+    np.testing.assert_array_equal(P[0, :d, :d], busy_filter.cov)
+    np.testing.assert_array_equal(slot_to_id[0, : n[0]], busy_filter.state_to_id)
+    for view in (x, P, n, slot_to_id):
+        with pytest.raises(ValueError, match="read-only"):
+            view[0] = 0
+    busy_filter.update([[1.0, 1.0]], [4])  # they follow the filter
+    assert n[0] == 3 and x[0, 7] == busy_filter.mean[7]

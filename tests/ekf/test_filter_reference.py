@@ -1,7 +1,8 @@
 """EKFSLAM against the dense textbook EKF-SLAM of ``dense_reference.py``: same mean,
 covariance, landmark order, statuses and NIS to 1e-9 over random sequences of
 predictions, corrections (with gate rejections) and new landmarks, for every
-motion × measurement model and both correction modes."""
+motion × measurement model and both correction modes; and the batched kernels
+(:mod:`slam_env.kernels.ekf`) the same way, all eight combinations in one batch."""
 
 from __future__ import annotations
 
@@ -11,9 +12,10 @@ import math
 import numpy as np
 import pytest
 
-from slam_env.ekf import EKFSLAM, chi2_gate
+from slam_env.ekf import EKFSLAM, chi2_gate, kernel_config
 from slam_env.ekf.models import MEASUREMENT_MODELS, MOTION_MODELS
 from slam_env.geometry import wrap_angle
+from slam_env.kernels import ekf
 
 ALPHAS = (0.02, 0.01, 0.02, 0.01)
 CONTROL_NOISE = (0.02, 0.01, 0.01, 0.05)
@@ -173,3 +175,83 @@ def test_many_observations_in_one_update(dense_reference, correction):
         np.testing.assert_array_equal(res.status, status)
         assert_same_belief(f, ref)
     assert f.n_landmarks == n
+
+
+def test_the_batched_kernels_agree_with_the_dense_filter_for_every_combination(dense_reference):
+    """One batch of 8 worlds, one per motion × measurement × correction combination,
+    each against its own dense textbook filter, to 1e-9 after every call."""
+    rng = np.random.default_rng(8)
+    B, M, D = len(COMBOS), 10, 5
+    dmax = 3 + 2 * M
+    pose0 = np.array([0.1, -0.2, wrap_angle(3.1)])
+    cov0 = np.diag([0.01, 0.02, 0.003])
+    gate = chi2_gate(0.99)
+    x, P = np.zeros((B, dmax)), np.zeros((B, dmax, dmax))
+    x[:, :3], P[:, :3, :3] = pose0, cov0
+    n, n_rejected = np.zeros(B, np.int64), np.zeros(B, np.int64)
+    id_to_slot, slot_to_id = np.full((B, M), -1), np.full((B, M), -1)
+    config = [
+        kernel_config(m, h, c, ALPHAS if m == "odometry" else CONTROL_NOISE, Q[h], gate)
+        for m, h, c in COMBOS
+    ]
+    params = np.array([p for p, _ in config])
+    modes = np.array([m for _, m in config])
+    refs = [
+        dense_reference.DenseEKFSLAM(
+            m,
+            h,
+            Q[h],
+            alphas=ALPHAS,
+            control_noise=CONTROL_NOISE,
+            initial_pose=pose0,
+            initial_pose_cov=cov0,
+            gate=gate,
+            correction=c,
+        )
+        for m, h, c in COMBOS
+    ]
+    truth = rng.uniform(-6, 6, size=(B, M, 2))
+    poses = np.tile(pose0, (B, 1))
+    everywhere, error = np.ones(B, dtype=np.bool_), np.zeros(B, np.int64)
+    work = np.empty(ekf.update_workspace_size(dmax, D))
+    counts = {"corrected": 0, "initialised": 0, "rejected": 0}
+    for _ in range(50):
+        u = np.zeros((B, 3))
+        for b, (motion, _, _) in enumerate(COMBOS):
+            cdim = MOTION_MODELS[motion].control_dim
+            u[b, :cdim] = random_control(rng, motion)
+            poses[b] = MOTION_MODELS[motion].motion(poses[b], u[b, :cdim])
+            refs[b].predict(u[b, :cdim])
+        ekf.predict(x, P, n, u, params, modes, everywhere, error)
+        assert (error == 0).all()
+        z, ids = np.zeros((B, D, 2)), np.zeros((B, D), np.int64)
+        k = rng.integers(0, D + 1, size=B)
+        for b, (_, measurement, _) in enumerate(COMBOS):
+            ids[b, : k[b]] = rng.permutation(M)[: k[b]]
+            hm = MEASUREMENT_MODELS[measurement]
+            z[b, : k[b]] = (
+                hm.h(poses[b], truth[b, ids[b, : k[b]]]) + rng.normal(size=(k[b], 2)) * 0.03
+            )
+            if k[b] and rng.random() < 0.2:
+                z[b, 0, 0] += 2.0  # an outlier the gate rejects if the landmark is known
+        status, nis = np.empty((B, D), np.int8), np.empty((B, D))
+        ekf.update(
+            x, P, n, id_to_slot, slot_to_id, n_rejected, params, modes, z, ids, k,
+            everywhere, status, nis, error, work,
+        )  # fmt: skip
+        assert (error == 0).all()
+        for b, ref in enumerate(refs):
+            ref_status, ref_nis = ref.update(z[b, : k[b]], ids[b, : k[b]])
+            np.testing.assert_array_equal(status[b, : k[b]], ref_status)
+            np.testing.assert_allclose(nis[b, : k[b]], ref_nis, rtol=1e-6, equal_nan=True)
+            d = 3 + 2 * n[b]
+            np.testing.assert_array_equal(slot_to_id[b, : n[b]], ref.state_to_id)
+            assert n_rejected[b] == ref.n_rejected
+            mean = x[b, :d].copy()
+            assert abs(wrap_angle(mean[2] - ref.mean[2])) <= 1e-9
+            mean[2] = ref.mean[2]
+            np.testing.assert_allclose(mean, ref.mean, rtol=0, atol=1e-9)
+            np.testing.assert_allclose(P[b, :d, :d], ref.cov, rtol=0, atol=1e-9)
+            for name, code in (("corrected", 0), ("initialised", 1), ("rejected", 2)):
+                counts[name] += int(np.sum(ref_status == code))
+    assert counts["initialised"] == B * M and counts["corrected"] > 500 and counts["rejected"] > 10

@@ -14,7 +14,7 @@ import json, warnings
 import gymnasium as gym
 import slam_env
 from slam_env.kernels import KERNELS
-for env_id in ("slam_env/Landmarks-v0",):
+for env_id in ("slam_env/Landmarks-v0", "slam_env/ActiveSLAM-v0"):
     env = gym.make(env_id)
     env.reset(seed=0)
     for _ in range(5):
@@ -35,10 +35,15 @@ def _run(code: str) -> subprocess.CompletedProcess:
 
 
 def test_a_second_process_compiles_nothing() -> None:
+    from pathlib import Path
+
+    import slam_env.kernels as kernels
+
     _run(_RUN)  # warms the cache, if the suite has not already
     stats = json.loads(_run(_RUN).stdout.strip().splitlines()[-1])
     assert stats["misses"] == 0, stats
     assert stats["hits"] >= 4, stats  # the kernels the envs call came from the cache
+    assert any(Path(kernels.cache_directory()).rglob("*.nbi"))  # in the hashed directory
 
 
 def test_without_a_writable_cache_the_kernels_compile_and_warn_once() -> None:
@@ -57,3 +62,22 @@ def test_without_a_writable_cache_the_kernels_compile_and_warn_once() -> None:
     stats, notices = json.loads(out[-2]), json.loads(out[-1])
     assert stats["hits"] == 0 and stats["misses"] >= 4  # compiled here, nothing cached
     assert len(notices) == 1 and "NUMBA_CACHE_DIR" in notices[0]
+
+
+def test_the_cache_is_named_by_every_kernel_source(tmp_path) -> None:
+    """numba checks a cached kernel only against its own file: an edit to a kernel it
+    calls from another file must not reuse the cache, so its name hashes them all."""
+    import shutil
+    from pathlib import Path
+
+    import slam_env.kernels as kernels
+
+    folder = tmp_path / "kernels"
+    shutil.copytree(Path(kernels.__file__).parent, folder, ignore=shutil.ignore_patterns("__*"))
+    before = kernels.sources_hash(folder)
+    assert before == kernels.sources_hash(folder)  # stable
+    models = folder / "models.py"
+    models.write_text(models.read_text() + "\n# an edit\n")
+    assert kernels.sources_hash(folder) != before
+    here = kernels.sources_hash(Path(kernels.__file__).parent)
+    assert Path(kernels.cache_directory()).name == f"numba-{here}"

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from slam_env.config import EnvConfig, SensorConfig, WorldConfig
-from slam_env.kernels.geometry import line_of_sight
+from slam_env.kernels.raycast import line_of_sight
 from slam_env.kernels.sensing import proximity_scan, scan_uniforms, sense_landmarks
 from slam_env.sensors import LandmarkSensor
 from slam_env.world_batch import WorldBatch
@@ -48,9 +48,7 @@ def test_each_world_of_the_batch_is_what_the_sensor_sees_alone(sensor: SensorCon
             [rng.uniform(0.5, 15.5, b), rng.uniform(0.5, 15.5, b), rng.uniform(-4, 4, b)]
         )
         seeds = [1000 * step + i for i in range(b)]
-        uniforms = np.stack(
-            [np.random.default_rng(s).random(scan_uniforms(n, d)) for s in seeds]
-        )
+        uniforms = np.stack([np.random.default_rng(s).random(scan_uniforms(n, d)) for s in seeds])
         active = np.ones(b, dtype=bool)
         active[step % b] = False  # an inactive world keeps its last outputs
         kept = [o[step % b].copy() for o in out]

@@ -1,0 +1,330 @@
+"""The active-SLAM stream of B sub-envs of one config: the raw core, then each sub-env's
+EKF-SLAM filter, swept-area memory, belief observation and reward, each a kernel call
+over all of them.
+
+:class:`ActiveCore` is what ``slam_env/ActiveSLAM-v0`` runs as a batch of one and its
+native vector env for B sub-envs. It computes exactly what the composable wrappers
+(:class:`slam_env.wrappers.EKFSLAMWrapper`, :class:`slam_env.coverage.CoverageWrapper`,
+:class:`slam_env.wrappers.ActiveSLAMReward`) compute over a raw env, with the same
+kernels.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+from gymnasium import spaces
+
+from slam_env.active_options import ActiveSLAMOptions
+from slam_env.belief import BeliefGeometry, EgocentricEncoding, FullEncoding
+from slam_env.belief_entropy import BeliefEntropy
+from slam_env.config import EnvConfig
+from slam_env.coverage import CoverageGrid
+from slam_env.ekf import EKFSLAM
+from slam_env.ekf.batch import FilterBatch
+from slam_env.kernels.diagnostics import DIAGNOSTICS, belief_diagnostics
+from slam_env.kernels.divergence import count_rejections, diverged
+from slam_env.kernels.observe import filter_inputs
+from slam_env.kernels.reward import active_slam_reward
+from slam_env.layouts import Layout
+from slam_env.overlay import BeliefOverlay
+from slam_env.raw_core import BatchCore, RawCore
+from slam_env.wrappers import DIVERGENCE_REJECTIONS, PASSTHROUGH_KEYS, REWARD_TERMS
+
+# Rows of the diagnostics kernel's output, by name.
+_DIAGNOSTIC_ROW = {name: i for i, name in enumerate(DIAGNOSTICS)}
+
+
+class ActiveCore(BatchCore):
+    """B sub-envs of ``slam_env/ActiveSLAM-v0`` with one config, stepped together.
+
+    Each step: :class:`RawCore`'s step, then the filters' prediction with the odometry
+    reading and their update with the detections (as the observation reports them),
+    the diagnostics against the truth, the belief entropy, the swept-area memory from
+    the estimated pose, the belief observation and the reward terms. Results stay in
+    the arrays until the next call; :meth:`observation`/:meth:`info` copy one sub-env's
+    out, :meth:`observations`/:meth:`infos` all.
+    """
+
+    def __init__(self, config: EnvConfig, num_envs: int, options: ActiveSLAMOptions) -> None:
+        self.config = config
+        self.num_envs = b = num_envs
+        self.options = options
+        raw = self.raw = RawCore(config, num_envs)
+        m, d = raw.n_slots, raw.max_detections
+        width, height = raw.arena_size
+        sensor, odometry = config.sensor, config.odometry
+        template = EKFSLAM(
+            motion_model=odometry.motion_model,
+            measurement_model=sensor.measurement_model,
+            alphas=options.filter_alphas or odometry.alphas,
+            control_noise=options.filter_control_noise or odometry.velocity_noise,
+            measurement_cov=(
+                sensor.measurement_cov
+                if options.filter_measurement_cov is None
+                else options.filter_measurement_cov
+            ),
+            max_landmarks=m,
+            gate=options.gate,
+            correction=options.correction,
+        )
+        self.filters = FilterBatch(b, template, d)
+        self._geometry = BeliefGeometry(m, width, height, sensor.max_range)
+        self._entropy_of = BeliefEntropy(m, width, height)
+        self._passthrough = tuple(k for k in PASSTHROUGH_KEYS if k in raw.observation_space.spaces)
+        self.coverage: CoverageGrid | None = None
+        if options.coverage:
+            self.coverage = CoverageGrid.for_sensor(width, height, sensor, worlds=b)
+        if options.observation == "full":
+            self._encoding: FullEncoding | EgocentricEncoding = FullEncoding(self._geometry)
+            self._full = self._encoding.empty(b)
+        else:
+            self._encoding = EgocentricEncoding(self._geometry)
+        self.observation_space = self._observation_space(raw.observation_space)
+        self._weights = np.array([getattr(options.weights, name) for name in REWARD_TERMS])
+
+        # The truth by landmark ID (NaN where a world has no such ID), per world.
+        self.truth = np.full((b, m, 2), np.nan)
+        # Each world's step: what went wrong with its filter, the diagnostics, the
+        # entropy, the observation and the reward.
+        self.failed = np.zeros(b, dtype=bool)
+        self.in_a_row = np.zeros(b, dtype=np.int64)
+        self.updated = np.zeros(b, dtype=bool)
+        self.diagnostics = np.zeros((len(DIAGNOSTICS), b))
+        self.entropy = np.zeros(b)
+        self._entropy_ok = np.zeros(b, dtype=bool)
+        self.clipped = np.zeros(b, dtype=bool)
+        self.diverged = np.zeros(b, dtype=bool)
+        self.swept_fraction = np.zeros(b)
+        coverage_width = 0 if self.coverage is None else 1 + self.coverage.n_features
+        raw_width = sum(raw.observation_space[k].shape[0] for k in self._passthrough)
+        # The egocentric observation's tail: the raw proximity readings, then coverage.
+        self._tail = np.zeros((b, raw_width + coverage_width), dtype=np.float32)
+        self.egocentric = (
+            np.zeros((b, self.observation_space.shape[0]), np.float32)
+            if (options.observation == "egocentric")
+            else None
+        )
+        self.last = np.zeros((b, 2))  # the previous step's entropy and swept fraction
+        self.terms = np.zeros((b, len(REWARD_TERMS)))
+        self.rewards = np.zeros(b)
+        self._none = np.zeros(b, dtype=bool)
+
+    def _observation_space(self, raw_space: spaces.Dict) -> spaces.Space:
+        """The belief encoding's space with the raw proximity sensors' and the
+        coverage features' (see :class:`slam_env.active_slam.ActiveSLAMEnv`)."""
+        extra = {k: raw_space[k] for k in self._passthrough}
+        if self.coverage is not None:
+            n = 1 + self.coverage.n_features
+            extra["coverage"] = spaces.Box(0.0, 1.0, (n,), np.float32)
+        belief = self._encoding.space
+        if isinstance(belief, spaces.Dict):
+            return spaces.Dict({**belief.spaces, **extra})
+        return spaces.Box(
+            np.concatenate([belief.low, *(e.low for e in extra.values())]),
+            np.concatenate([belief.high, *(e.high for e in extra.values())]),
+            dtype=np.float32,
+        )
+
+    # ------------------------------------------------------------------ stepping
+    @property
+    def rngs(self) -> list[np.random.Generator | None]:
+        return self.raw.rngs
+
+    @property
+    def _idle(self) -> list[float]:
+        return self.raw._idle
+
+    def advance(
+        self,
+        speed: list[float],
+        turn: list[float],
+        stepping: np.ndarray,
+        resetting: Sequence[int],
+    ) -> list[Layout]:
+        """Step the sub-envs of ``stepping`` and start a new episode for those listed
+        in ``resetting``, in the same kernel calls (see :meth:`RawCore.advance`). A
+        new episode's filter starts at the true start pose and folds in the first
+        scan; its reward is 0, and the next step's gains are measured from it."""
+        raw, filters = self.raw, self.filters
+        layouts = raw.advance(speed, turn, stepping, resetting)
+        touched = stepping.copy()
+        worlds = raw.worlds
+        for b in resetting:
+            self.truth[b] = np.nan
+            self.truth[b, worlds.landmark_ids[b]] = worlds.landmarks[b]
+            filters.reset(b, worlds.poses[b])
+            self.failed[b] = False
+            self.in_a_row[b] = 0
+            if self.coverage is not None:
+                self.coverage.reset(b)
+            touched[b] = True
+        out = raw.out
+        filter_inputs(
+            out.odometry, out.detections, out.ids, touched, filters.u, filters.z, filters.ids
+        )
+        np.copyto(filters.counts, raw.det_count)
+        filters.predict(stepping)
+        self.failed |= stepping & (filters.error != 0)
+        np.logical_and(touched, filters.counts > 0, out=self.updated)
+        filters.update(self.updated)
+        failed = self.updated & (filters.error != 0)
+        self.failed |= failed
+        # A failed update changed nothing: it counts no rejection either.
+        count_rejections(filters.status, filters.counts, self.updated & ~failed, self.in_a_row)
+        self._observe(touched)
+        active_slam_reward(
+            self._weights,
+            self.entropy,
+            self.diagnostics[_DIAGNOSTIC_ROW["pose_std"]],
+            raw.collided,
+            self.swept_fraction,
+            self.last,
+            self.terms,
+            self.rewards,
+            stepping,
+        )
+        for b in resetting:
+            self.last[b] = (self.entropy[b], self.swept_fraction[b])
+            self.terms[b] = 0.0
+            self.rewards[b] = 0.0
+        return layouts
+
+    @property
+    def terminated(self) -> np.ndarray:
+        return self.raw.terminated
+
+    def _observe(self, active: np.ndarray) -> None:
+        """Diagnostics, entropy, coverage, observation and ``diverged`` of the active
+        worlds."""
+        filters, raw = self.filters, self.raw
+        belief = (filters.x, filters.P, filters.n, filters.slot_to_id)
+        belief_diagnostics(*belief, raw.worlds.poses, self.truth, self.diagnostics, active)
+        self._entropy_of.batch(filters.P, filters.n, self.entropy, self._entropy_ok, active)
+        tail, at = self._tail, 0
+        for key in self._passthrough:
+            values = raw.scan if key == "scan" else raw.out.bumper
+            tail[:, at : at + values.shape[1]] = values
+            at += values.shape[1]
+        if self.coverage is not None:
+            tail[:, at:] = self.coverage.step_all(filters.x, active)  # rounded to float32
+            self.swept_fraction[:] = self.coverage.swept_fractions()
+        if self.egocentric is not None:
+            self._encoding.encode_batch(belief, tail, self.egocentric, self.clipped, active)
+        else:
+            self._encoding.encode_batch(belief, self._full, active)
+            np.copyto(self.clipped, self._full.clipped)
+        diverged(self.clipped, self.failed, self.in_a_row, DIVERGENCE_REJECTIONS, self.diverged)
+
+    # ------------------------------------------------------------------ reading
+    def observation(self, index: int) -> Any:
+        """Sub-env ``index``'s observation, fresh arrays."""
+        if self.egocentric is not None:
+            return self.egocentric[index].copy()
+        return self._full_observation(slice(index, index + 1), 0)
+
+    def observations(self) -> Any:
+        """Every sub-env's observation, stacked (B, …), fresh arrays."""
+        if self.egocentric is not None:
+            return self.egocentric.copy()
+        return self._full_observation(slice(None), None)
+
+    def _full_observation(self, rows: slice, pick: int | None) -> dict[str, np.ndarray]:
+        full, raw = self._full, self.raw
+        obs = {"mean": full.mean[rows], "cov": full.cov[rows], "known": full.known[rows]}
+        for key in self._passthrough:
+            obs[key] = (raw.scan if key == "scan" else raw.out.bumper)[rows]
+        if self.coverage is not None:
+            obs["coverage"] = self._tail[rows, -(1 + self.coverage.n_features) :]
+        return {k: (v[pick] if pick is not None else v).copy() for k, v in obs.items()}
+
+    def info(self, index: int) -> dict[str, Any]:
+        """Sub-env ``index``'s info, fresh objects (see :class:`ActiveSLAMEnv`)."""
+        info = self.raw.info(index)
+        info["raw_reward_terms"] = info.pop("reward_terms")
+        diag = dict(zip(DIAGNOSTICS, self.diagnostics[:, index].tolist(), strict=True))
+        info["pose_error"] = diag["pose_error"]
+        info["heading_error"] = diag["heading_error"]
+        # Undefined metrics are absent, never NaN: the map error before the first
+        # landmark, the NEES of a covariance gone non-finite.
+        if not math.isnan(diag["map_rmse"]):
+            info["map_rmse"] = diag["map_rmse"]
+        if not math.isnan(diag["pose_nees"]):
+            info["pose_nees"] = diag["pose_nees"]
+        info["landmarks_known"] = int(self.filters.n[index])
+        info["rejected"] = int(self.filters.n_rejected[index])
+        info["entropy"] = float(self.entropy[index])
+        info["pose_std"] = diag["pose_std"]
+        info["belief_clipped"] = bool(self.clipped[index])
+        info["consecutive_rejections"] = int(self.in_a_row[index])
+        info["diverged"] = bool(self.diverged[index])
+        if self.coverage is not None:
+            info["swept_fraction"] = float(self.swept_fraction[index])
+        info["reward_terms"] = dict(zip(REWARD_TERMS, self.terms[index].tolist(), strict=True))
+        return info
+
+    def infos(self) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+        """Every sub-env's info, stacked (B, …), fresh arrays, and the masks of the keys
+        that not every sub-env reports (the undefined metrics)."""
+        info, _ = self.raw.infos()
+        info["raw_reward_terms"] = info.pop("reward_terms")
+        diag = {name: self.diagnostics[row].copy() for name, row in _DIAGNOSTIC_ROW.items()}
+        masks = {}
+        for name in ("map_rmse", "pose_nees"):
+            defined = ~np.isnan(diag[name])
+            masks[name] = defined
+            diag[name][~defined] = 0.0  # Gymnasium's value where a sub-env reports nothing
+        info["pose_error"] = diag["pose_error"]
+        info["heading_error"] = diag["heading_error"]
+        info["map_rmse"] = diag["map_rmse"]
+        info["pose_nees"] = diag["pose_nees"]
+        info["landmarks_known"] = self.filters.n.copy()
+        info["rejected"] = self.filters.n_rejected.copy()
+        info["entropy"] = self.entropy.copy()
+        info["pose_std"] = diag["pose_std"]
+        info["belief_clipped"] = self.clipped.copy()
+        info["consecutive_rejections"] = self.in_a_row.copy()
+        info["diverged"] = self.diverged.copy()
+        if self.coverage is not None:
+            info["swept_fraction"] = self.swept_fraction.copy()
+        info["reward_terms"] = {
+            name: self.terms[:, i].copy() for i, name in enumerate(REWARD_TERMS)
+        }
+        return info, masks
+
+    def filter(self, index: int) -> EKFSLAM:
+        """Sub-env ``index``'s filter, over the batch's storage."""
+        return self.filters.filter(index)
+
+    def belief_overlay(self, index: int, true_landmarks: Any = None) -> BeliefOverlay:
+        """What the pictures draw of sub-env ``index``'s belief (and ``true_landmarks``
+        (N, 2) beside it, if given)."""
+        f = self.filter(index)
+        return BeliefOverlay.from_state(f.mean, f.cov, f.state_to_id, true_landmarks)
+
+    def frame(self, index: int, trail: Any, belief: Any = None) -> Any:
+        return self.raw.frame(index, trail, belief)
+
+    # What the single env reads of its world, as of the raw core.
+    @property
+    def worlds(self):
+        return self.raw.worlds
+
+    @property
+    def n_landmarks(self) -> int:
+        return self.raw.n_landmarks
+
+    @property
+    def n_slots(self) -> int:
+        return self.raw.n_slots
+
+    @property
+    def arena_size(self) -> tuple[float, float]:
+        return self.raw.arena_size
+
+    @property
+    def max_detections(self) -> int:
+        return self.raw.max_detections

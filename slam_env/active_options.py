@@ -1,0 +1,173 @@
+"""The options ``slam_env/ActiveSLAM-v0`` adds to the world's: normalised (numpy
+scalars and arrays taken as the Python values they hold), checked, and named in every
+error, before the env builds anything."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field, fields
+from typing import Any
+
+from slam_env.budget import check_budget, world_size
+from slam_env.config import EnvConfig, make_config, plain, with_defaults
+from slam_env.ekf import CORRECTION_MODES
+from slam_env.wrappers import DEFAULT_GATE, OBSERVATION_MODES, ActiveSLAMRewardWeights
+
+# Proximity beams in the active-SLAM observation, unless the options set them.
+DEFAULT_SCAN_BEAMS = 16
+# The world options whose default differs here: a policy must see obstacles, which the
+# landmark map does not hold, and feel when one blocks it (a corner can hide between
+# two beams). They apply unless the options set them, flat or nested.
+ACTIVE_SLAM_DEFAULTS = {"scan_beams": DEFAULT_SCAN_BEAMS, "bumper": True}
+
+
+def _number(name: str, value: Any) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise TypeError(f"{name} must be a number, got {type(value).__name__}")
+    if not math.isfinite(value):
+        raise ValueError(f"{name} must be finite, got {value!r}")
+    return float(value)
+
+
+def _noise_gains(name: str, value: Any) -> tuple[float, ...] | None:
+    """None, or 4 finite numbers >= 0."""
+    if value is None:
+        return None
+    if not isinstance(value, tuple) or len(value) != 4:
+        raise ValueError(f"{name} must be 4 numbers, got {value!r}")
+    out = tuple(_number(f"{name}[{i}]", v) for i, v in enumerate(value))
+    for i, v in enumerate(out):
+        if v < 0.0:
+            raise ValueError(f"{name}[{i}] must be >= 0, got {v}")
+    return out
+
+
+def _measurement_cov(name: str, value: Any) -> tuple[tuple[float, float], ...] | None:
+    """None, or a 2×2 symmetric positive-definite matrix."""
+    if value is None:
+        return None
+    if not (
+        isinstance(value, tuple)
+        and len(value) == 2
+        and all(isinstance(row, tuple) and len(row) == 2 for row in value)
+    ):
+        raise ValueError(f"{name} must be a 2×2 matrix, got {value!r}")
+    (a, b), (c, d) = (
+        (_number(f"{name}[{i}][{j}]", v) for j, v in enumerate(row)) for i, row in enumerate(value)
+    )
+    if b != c or not (a > 0.0 and d > 0.0 and a * d - b * c > 0.0):
+        raise ValueError(
+            f"{name} must be symmetric positive definite (a noise-free sensor makes the "
+            f"innovation covariance singular), got {value!r}"
+        )
+    return ((a, b), (c, d))
+
+
+@dataclass(frozen=True)
+class ActiveSLAMOptions:
+    """The arguments of :class:`slam_env.active_slam.ActiveSLAMEnv` other than the
+    world's options, checked (see its docstring for their meaning)."""
+
+    observation: str = "egocentric"
+    correction: str = "sequential"
+    gate: float | None = DEFAULT_GATE
+    filter_alphas: Any = None
+    filter_control_noise: Any = None
+    filter_measurement_cov: Any = None
+    reward_weights: Any = None
+    coverage: bool = True
+    weights: ActiveSLAMRewardWeights = field(init=False)
+
+    def __post_init__(self) -> None:
+        values = {f.name: plain(getattr(self, f.name)) for f in fields(self) if f.init}
+        if values["observation"] not in OBSERVATION_MODES:
+            raise ValueError(
+                f"observation must be one of {OBSERVATION_MODES}, got {self.observation!r}"
+            )
+        if values["correction"] not in CORRECTION_MODES:
+            raise ValueError(
+                f"correction must be one of {CORRECTION_MODES}, got {self.correction!r}"
+            )
+        gate = values["gate"]
+        if gate is not None and not _number("gate", gate) > 0.0:
+            raise ValueError(f"gate must be > 0 (a χ² threshold) or None, got {gate!r}")
+        values["filter_alphas"] = _noise_gains("filter_alphas", values["filter_alphas"])
+        values["filter_control_noise"] = _noise_gains(
+            "filter_control_noise", values["filter_control_noise"]
+        )
+        values["filter_measurement_cov"] = _measurement_cov(
+            "filter_measurement_cov", values["filter_measurement_cov"]
+        )
+        if not isinstance(values["coverage"], bool):
+            raise TypeError(f"coverage must be a bool, got {self.coverage!r}")
+        for name, value in values.items():
+            object.__setattr__(self, name, value)
+        object.__setattr__(self, "weights", self._weights(self.reward_weights))
+
+    @classmethod
+    def argument_names(cls) -> tuple[str, ...]:
+        """The options' names, as ``ActiveSLAM-v0`` takes them."""
+        return tuple(f.name for f in fields(cls) if f.init)
+
+    @staticmethod
+    def _weights(value: Any) -> ActiveSLAMRewardWeights:
+        if value is None:
+            return ActiveSLAMRewardWeights()
+        if isinstance(value, ActiveSLAMRewardWeights):
+            return value
+        if not isinstance(value, Mapping):
+            raise TypeError(
+                "reward_weights must be an ActiveSLAMRewardWeights or a dict of its "
+                f"fields, got {type(value).__name__}"
+            )
+        valid = ActiveSLAMRewardWeights.__dataclass_fields__
+        unknown = sorted(set(value) - set(valid))
+        if unknown:
+            raise TypeError(f"unknown reward_weights {unknown}; valid: {sorted(valid)}")
+        try:
+            return ActiveSLAMRewardWeights(**{k: plain(v) for k, v in value.items()})
+        except (TypeError, ValueError) as exc:
+            raise type(exc)(f"reward_weights: {exc}") from None
+
+    def check_against(self, config: EnvConfig) -> None:
+        """``ValueError`` when the filter would take a noise-free measurement model
+        from the env (its innovation covariance would be singular)."""
+        if self.filter_measurement_cov is not None:
+            return
+        sensor = config.sensor
+        q = sensor.measurement_cov
+        if not (q[0, 0] > 0.0 and q[1, 1] > 0.0):  # squares that underflow count as 0
+            names = (
+                "range_std and bearing_std"
+                if sensor.measurement_model == "range_bearing"
+                else "cartesian_std"
+            )
+            raise ValueError(
+                f"{names} must be > 0 (and their squares > 0) for ActiveSLAM-v0's filter: a "
+                "noise-free sensor makes its innovation covariance singular; or give "
+                "filter_measurement_cov"
+            )
+
+
+def active_config(
+    options: ActiveSLAMOptions, env_options: Mapping[str, Any], num_envs: int
+) -> EnvConfig:
+    """The world's config of ``ActiveSLAM-v0`` from its options (flat or nested, with
+    :data:`ACTIVE_SLAM_DEFAULTS`), checked with ``options`` against the resource budget
+    for ``num_envs`` sub-envs before anything is built."""
+    env_options = with_defaults(env_options, ACTIVE_SLAM_DEFAULTS)
+    config = make_config(env_options.pop("config", None), **env_options)
+    check_budget(
+        config,
+        world_size(config),
+        belief=options.observation,
+        coverage=options.coverage,
+        filter_alphas=options.filter_alphas,
+        filter_control_noise=options.filter_control_noise,
+        filter_measurement_cov=options.filter_measurement_cov,
+        reward_weights=vars(options.weights),
+        num_envs=num_envs,
+    )
+    options.check_against(config)
+    return config

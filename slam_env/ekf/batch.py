@@ -1,0 +1,89 @@
+"""B EKF-SLAM filters of one configuration, stepped together: the filters of a native
+vector env's sub-envs, as one batched state (:mod:`slam_env.kernels.ekf`)."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from slam_env.ekf.filter import EKFSLAM
+from slam_env.kernels import ekf
+
+
+class FilterBatch:
+    """The state of B filters configured as ``template`` (an :class:`EKFSLAM`, whose own
+    state is not used): ``x (B, dmax)``, ``P (B, dmax, dmax)``, ``n``, ``id_to_slot``,
+    ``slot_to_id`` and ``n_rejected``, laid out as the kernels take them, with the
+    inputs and outputs of a step. :meth:`predict` and :meth:`update` step the filters
+    whose mask is set, each atomically (a filter whose step fails keeps its state and
+    gets an error code in :attr:`error`); :meth:`filter` is filter b as an
+    :class:`EKFSLAM` over the same storage. The inputs are the caller's to fill and are
+    not checked (a vector env's own stream is well-formed by construction).
+
+    Args:
+        num_filters: B.
+        template: the configuration (models, noise, gate, correction, landmark slots).
+        max_observations: D, the most observations of one update.
+    """
+
+    def __init__(self, num_filters: int, template: EKFSLAM, max_observations: int) -> None:
+        self.template = template
+        b, m, d = num_filters, template.max_landmarks, max_observations
+        dmax = 3 + 2 * m
+        self.x = np.zeros((b, dmax))
+        self.P = np.zeros((b, dmax, dmax))
+        self.n = np.zeros(b, dtype=np.int64)
+        self.id_to_slot = np.full((b, m), -1, dtype=np.int64)
+        self.slot_to_id = np.full((b, m), -1, dtype=np.int64)
+        self.n_rejected = np.zeros(b, dtype=np.int64)
+        self.params = np.repeat(template._params, b, axis=0)
+        self.modes = np.repeat(template._modes, b, axis=0)
+        # The inputs of a step (controls; observations, their IDs and counts), its
+        # outputs (per observation, per filter) and the update's workspace.
+        self.u = np.zeros((b, template._u.shape[1]))
+        self.z = np.zeros((b, d, 2))
+        self.ids = np.zeros((b, d), dtype=np.int64)
+        self.counts = np.zeros(b, dtype=np.int64)
+        self.status = np.zeros((b, d), dtype=np.int8)
+        self.nis = np.zeros((b, d))
+        self.error = np.zeros(b, dtype=np.int64)
+        self._work = np.empty(ekf.update_workspace_size(dmax, d))
+        self._views: dict[int, EKFSLAM] = {}
+
+    @property
+    def storage(self) -> tuple[np.ndarray, ...]:
+        """The six state arrays, in :attr:`EKFSLAM._STATE` order."""
+        return self.x, self.P, self.n, self.id_to_slot, self.slot_to_id, self.n_rejected
+
+    def filter(self, index: int) -> EKFSLAM:
+        """Filter ``index`` as an :class:`EKFSLAM` whose state is row ``index`` of this
+        batch (a view: it follows the batch, and the batch what it does)."""
+        view = self._views.get(index)
+        if view is None:
+            view = self.template._view_over(tuple(a[index : index + 1] for a in self.storage))
+            self._views[index] = view
+        return view
+
+    def reset(self, index: int, pose: Any, pose_cov: Any = None) -> None:
+        """Start filter ``index`` at ``pose`` with ``pose_cov`` (default the template's
+        initial covariance), no landmarks, no rejections."""
+        self.filter(index).reset(initial_pose=pose, initial_pose_cov=pose_cov)
+
+    def predict(self, mask: np.ndarray) -> None:
+        """Predict the filters of ``mask`` (B,) bool with their controls :attr:`u`."""
+        ekf.predict(self.x, self.P, self.n, self.u, self.params, self.modes, mask, self.error)
+
+    def update(self, mask: np.ndarray) -> None:
+        """Update the filters of ``mask`` with their first :attr:`counts` observations
+        :attr:`z` of landmarks :attr:`ids`; per observation :attr:`status` and
+        :attr:`nis`."""
+        ekf.update(
+            self.x, self.P, self.n, self.id_to_slot, self.slot_to_id, self.n_rejected,
+            self.params, self.modes, self.z, self.ids, self.counts, mask,
+            self.status, self.nis, self.error, self._work,
+        )  # fmt: skip
+
+    # Pickling: the views are rebuilt on demand over the unpickled arrays.
+    def __getstate__(self) -> dict[str, Any]:
+        return {**self.__dict__, "_views": {}}

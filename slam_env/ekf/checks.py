@@ -1,0 +1,175 @@
+"""Input checks of the filter: every bad value becomes a ``TypeError``/``ValueError``
+that names what was wrong, before the filter's state is touched.
+
+Non-real and non-numeric inputs (complex, object, strings, and bool where a number is
+expected) are refused rather than cast.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from slam_env.kernels.ekf import COV_LIMIT
+
+_FLOAT64 = np.dtype(np.float64)
+_INT64 = np.dtype(np.int64)
+
+
+def number(value: Any, name: str) -> float:
+    """A finite real scalar (Python or numpy; not bool, not complex)."""
+    if isinstance(value, (bool, np.bool_, np.complexfloating)) or not isinstance(
+        value, (int, float, np.integer, np.floating)
+    ):
+        raise TypeError(f"{name} must be a number, got {type(value).__name__}")
+    value = float(value)
+    if not math.isfinite(value):
+        raise ValueError(f"{name} must be finite, got {value!r}")
+    return value
+
+
+def real_array(value: Any, name: str, what: str = "an array") -> np.ndarray:
+    """``value`` as a float64 array, refusing dtypes that are not real numbers
+    (complex, bool, strings, objects)."""
+    try:
+        arr = np.asarray(value)
+    except (TypeError, ValueError) as exc:
+        raise TypeError(f"{name} must be {what} of numbers: {exc}") from None
+    if arr.dtype.kind not in "fiu":
+        raise TypeError(f"{name} must be {what} of numbers (real, not bool), got dtype {arr.dtype}")
+    return arr.astype(np.float64, copy=False)
+
+
+def float_array(value: Any, name: str, shape: tuple[int, ...]) -> np.ndarray:
+    """A finite float64 array of the given shape (a fresh copy)."""
+    arr = np.array(real_array(value, name))
+    if arr.shape != shape:
+        raise ValueError(f"{name} must have shape {shape}, got {arr.shape}")
+    if not np.isfinite(arr).all():
+        raise ValueError(f"{name} must be finite, got {arr.tolist()}")
+    return arr
+
+
+def covariance(value: Any, name: str, n: int, definite: bool) -> np.ndarray:
+    """An n×n symmetric positive (semi-)definite covariance, entries at most
+    :data:`~slam_env.kernels.ekf.COV_LIMIT` (beyond it the filter's sums overflow)."""
+    cov = float_array(value, name, (n, n))
+    biggest = float(np.abs(cov).max())
+    if biggest > COV_LIMIT:
+        raise ValueError(
+            f"{name} has an entry of {biggest:g}: covariances above {COV_LIMIT:g} overflow "
+            "the filter's float64 arithmetic"
+        )
+    scale = max(1.0, biggest)
+    if np.abs(cov - cov.T).max() > 1e-9 * scale:
+        raise ValueError(f"{name} must be symmetric, got {cov.tolist()}")
+    cov = 0.5 * (cov + cov.T)
+    if definite:
+        try:
+            np.linalg.cholesky(cov)
+        except np.linalg.LinAlgError:
+            raise ValueError(
+                f"{name} must be symmetric positive definite (a noise-free sensor makes "
+                f"the innovation covariance singular), got {cov.tolist()}"
+            ) from None
+    elif np.linalg.eigvalsh(cov).min() < -1e-12 * scale:
+        raise ValueError(f"{name} must be positive semi-definite, got {cov.tolist()}")
+    return cov
+
+
+def noise_params(value: Any, name: str) -> tuple[float, float, float, float]:
+    """Four finite numbers ≥ 0."""
+    try:
+        items = list(value)
+    except TypeError:
+        raise TypeError(f"{name} must be a sequence of 4 numbers, got {value!r}") from None
+    if len(items) != 4:
+        raise ValueError(f"{name} must have 4 entries, got {len(items)}")
+    out = []
+    for i, item in enumerate(items):
+        v = number(item, f"{name}[{i}]")
+        if v < 0.0:
+            raise ValueError(f"{name}[{i}] must be >= 0, got {v}")
+        out.append(v)
+    return out[0], out[1], out[2], out[3]
+
+
+def landmark_id(value: Any) -> int:
+    """One landmark ID as an int (numpy integers accepted, bool refused)."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)):
+        raise TypeError(f"landmark id must be an int, got {type(value).__name__}")
+    return int(value)
+
+
+def control_into(u: Any, row: np.ndarray, model: str) -> None:
+    """Write the control u into ``row`` ((dim,) float64, the kernel's input). Its
+    values are checked by the kernel: a non-finite one comes back as
+    :func:`bad_control`. Tuples of floats and real arrays of the right shape take a
+    short path (this runs at every step)."""
+    if type(u) is np.ndarray:
+        if u.shape == row.shape and u.dtype.kind in "fiu":
+            row[:] = u
+            return
+    elif type(u) is tuple and len(u) == row.shape[0]:
+        for v in u:
+            if type(v) is not float:
+                break
+        else:
+            row[:] = u
+            return
+    arr = real_array(u, "u")
+    if arr.shape != row.shape:
+        raise ValueError(f"u must have shape {row.shape} for the {model} model, got {arr.shape}")
+    row[:] = arr
+
+
+def bad_control(u: np.ndarray) -> ValueError:
+    """The error for a control the kernel refused (it is not finite)."""
+    return ValueError(f"u must be finite, got {u.ravel().tolist()}")
+
+
+def observations(z: Any, ids: Any) -> tuple[np.ndarray, np.ndarray]:
+    """z as a C-contiguous float64 (1, k, 2) array (a batch of one; a view of z where
+    it can be) and the IDs as a fresh int64 (1, k) array. Their values (finite, IDs in
+    range and distinct) are checked by the kernel before it changes anything;
+    :func:`bad_observations` explains a refusal."""
+    if not (type(z) is np.ndarray and z.dtype is _FLOAT64):
+        z = real_array(z, "z", "a (k, 2) array")
+    if z.ndim != 2 or z.shape[1] != 2:
+        raise ValueError(f"z must have shape (k, 2), got {z.shape}")
+    arr = ids if type(ids) is np.ndarray else np.asarray(ids)
+    if arr.ndim != 1 or arr.shape[0] != z.shape[0]:
+        raise ValueError(
+            f"ids must have shape ({z.shape[0]},) to match z {z.shape}, got {arr.shape}"
+        )
+    kind = arr.dtype.kind
+    if kind != "i":
+        if kind != "u" and arr.size:
+            raise TypeError(f"ids must be integers, got dtype {arr.dtype}")
+        if kind == "u" and arr.size and int(arr.max()) > np.iinfo(np.int64).max:
+            raise ValueError(f"landmark id {int(arr.max())} is beyond the int64 range")
+    return np.ascontiguousarray(z[None]), np.array(arr, dtype=_INT64, ndmin=2)
+
+
+def bad_observations(z: np.ndarray, ids: np.ndarray, max_landmarks: int) -> ValueError:
+    """The error for observations the kernel refused (z: (k, 2), ids: (k,)): the
+    first bad row or ID."""
+    for row, (a, b) in enumerate(z.tolist()):
+        if not (math.isfinite(a) and math.isfinite(b)):
+            return ValueError(f"z must be finite; row {row} is {[a, b]}")
+    id_list = ids.tolist()
+    for lid in id_list:
+        if lid < 0:
+            return ValueError(f"landmark id {lid} is negative; ids must be in [0, {max_landmarks})")
+        if lid >= max_landmarks:
+            return ValueError(
+                f"landmark id {lid} is beyond capacity (max_landmarks={max_landmarks})"
+            )
+    seen: set[int] = set()
+    for lid in id_list:
+        if lid in seen:
+            return ValueError(f"duplicate landmark id {lid} in one update")
+        seen.add(lid)
+    return ValueError("the observations were refused")  # not reached: the kernel agrees

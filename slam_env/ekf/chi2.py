@@ -1,0 +1,25 @@
+"""χ² quantiles for the filter's validation gate and consistency bands (scipy's,
+behind argument checks that name the bad value)."""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.stats import chi2
+
+__all__ = ["chi2_gate", "chi2_ppf"]
+
+
+def chi2_ppf(p: float, dof: int) -> float:
+    """The p-quantile of the χ² distribution with ``dof`` degrees of freedom."""
+    if isinstance(p, bool) or not isinstance(p, (int, float)) or not 0.0 < p < 1.0:
+        raise ValueError(f"chi2 probability must be in (0, 1), got {p!r}")
+    if isinstance(dof, bool) or not isinstance(dof, (int, np.integer)) or dof < 1:
+        raise ValueError(f"chi2 dof must be an int >= 1, got {dof!r}")
+    return float(chi2.ppf(p, dof))
+
+
+def chi2_gate(probability: float = 0.99, dof: int = 2) -> float:
+    """The χ² validation gate for ``EKFSLAM(gate=...)``: an observation with
+    ``νᵀS⁻¹ν`` above it is rejected. A correct, noise-matched filter rejects a
+    fraction ``1 − probability`` of good observations (seed 004 validation)."""
+    return chi2_ppf(probability, dof)

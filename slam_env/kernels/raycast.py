@@ -1,0 +1,261 @@
+"""Segment queries against the static geometry of B worlds (:mod:`.geometry`): the
+landmark sensor's line of sight and the proximity scan, compiled.
+
+:func:`line_of_sight` and :func:`ray_fraction` answer what pymunk's
+``Space.segment_query_first(a, b, 0.0, filter)`` answers for the world's space, bit
+for bit: the same hits, the same alphas. Per shape they run Chipmunk's own arithmetic
+(:mod:`.shape_queries`). Which shapes a query tries, and so which of two hits an ulp
+apart comes back, is decided by the space's bounding-box tree, and pymunk 7.3 searches
+it with a stack (SubtreeSegmentQuery in Munk2D's cpBBTree.c): from the root, a popped
+inner node pushes each child whose box the query enters before the best alpha found
+*so far*, the farther one first; a popped leaf's shape counts when its alpha is below
+the best. So:
+
+* A shape is never tried when the query does not enter its box before alpha 1. Box
+  and shape round on their own, so this turns some grazing hits away (a ray one ulp
+  outside a post's box often hits the post by the post's arithmetic).
+* A line of sight is decided before anything is hit, while the bound is still 1, and
+  boxes nest (a node's box holds its children's, and the box test rounds
+  monotonically), so every shape whose box the query enters before 1 is tried, in any
+  order: the kernel tries them in a plain loop and stops at the first hit.
+* A ray fraction is the smallest alpha, unless the shape holding it is pruned by a
+  bound set by another shape's hit, which needs that hit within the few ulps between
+  the first shape's alpha and its box's entry alpha. The loop notes whether that can
+  have happened, and only then the kernel searches the tree exactly as Chipmunk does
+  (:func:`_tree_fraction`; rays into the corner where two walls meet, for instance).
+* A hit counts only at alpha < 1: touching at the very end is clear.
+
+The tree is pymunk 7.3's (an ulp-level difference from Chipmunk 7.0.3, which checks the
+bound when a child is reached rather than when it is pushed); pyproject pins pymunk 7.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from slam_env.kernels import inline_kernel, kernel
+from slam_env.kernels.geometry import N_CIRCLES, N_POLYGONS, N_SEGMENTS, StaticGeometry
+from slam_env.kernels.shape_queries import query_box_entry, shape_alpha
+
+__all__ = ["line_of_sight", "lines_of_sight", "range_scan", "ray_fraction", "ray_fractions"]
+
+
+@inline_kernel
+def _node_entry(
+    boxes: np.ndarray, b: int, node: int, ax: float, ay: float, bx: float, by: float
+) -> float:
+    """:func:`~.shape_queries.query_box_entry` for the box of tree node ``node`` of
+    world ``b``."""
+    return query_box_entry(
+        boxes[b, node, 0], boxes[b, node, 1], boxes[b, node, 2], boxes[b, node, 3], ax, ay, bx, by
+    )
+
+
+@inline_kernel
+def line_of_sight(
+    geometry: StaticGeometry,
+    b: int,
+    ax: float,
+    ay: float,
+    bx: float,
+    by: float,
+    skip_circle: int,
+) -> bool:
+    """True when nothing in world ``b`` but circle ``skip_circle`` (a landmark's own
+    post; −1 to skip none) blocks the segment a → b: pymunk's
+    ``segment_query_first(a, b, 0.0, filter) is None`` for a filter that passes every
+    static shape but that post."""
+    g = geometry
+    n_segments, n_polygons = g.counts[b, N_SEGMENTS], g.counts[b, N_POLYGONS]
+    n = n_segments + n_polygons + g.counts[b, N_CIRCLES]
+    skip_shape = -1 if skip_circle < 0 else n_segments + n_polygons + skip_circle
+    for node in range(2 * n - 1):  # the leaves, one per shape
+        shape = g.tree[b, node, 2]
+        if shape < 0 or shape == skip_shape:
+            continue
+        if _node_entry(g.tree_boxes, b, node, ax, ay, bx, by) < 1.0:
+            alpha = shape_alpha(g, b, shape, ax, ay, bx, by)
+            if alpha < 1.0:
+                return False
+    return True
+
+
+@inline_kernel
+def ray_fraction(
+    geometry: StaticGeometry, b: int, ax: float, ay: float, bx: float, by: float
+) -> float:
+    """The fraction in [0, 1] of a → b before the first shape of world ``b`` that it
+    hits, 1.0 when clear: ``segment_query_first(a, b, 0.0, filter).alpha`` (1.0 for
+    None) for a filter that passes every static shape."""
+    g = geometry
+    n = g.counts[b, N_SEGMENTS] + g.counts[b, N_POLYGONS] + g.counts[b, N_CIRCLES]
+    best = 1.0  # the smallest alpha,
+    best_entry = math.inf  # where the query enters that shape's box,
+    runner_up = 1.0  # and the smallest alpha of the other shapes
+    for node in range(2 * n - 1):
+        shape = g.tree[b, node, 2]
+        if shape < 0:
+            continue
+        entry = _node_entry(g.tree_boxes, b, node, ax, ay, bx, by)
+        if entry < 1.0:
+            alpha = shape_alpha(g, b, shape, ax, ay, bx, by)
+            if alpha < best:
+                runner_up = best
+                best = alpha
+                best_entry = entry
+            elif alpha < runner_up:
+                runner_up = alpha
+    # Until the best shape is tried, the bound is 1 or another shape's alpha, so at
+    # least runner_up; every box on the way to it is entered at best_entry or before.
+    # Below runner_up, nothing can prune it.
+    if best == 1.0 or best_entry < runner_up:
+        return best
+    return _tree_fraction(g, b, ax, ay, bx, by)
+
+
+# Tree levels whose child still to search is kept in the bits of an int64; deeper ones
+# (only long rows of shapes make them) go to an array allocated when first needed.
+_BIT_LEVELS = 63
+
+
+@kernel
+def _tree_fraction(
+    geometry: StaticGeometry, b: int, ax: float, ay: float, bx: float, by: float
+) -> float:
+    """:func:`ray_fraction` by searching world ``b``'s tree exactly as pymunk 7.3 does.
+
+    Between an inner node and its descendants, Chipmunk's stack can only hold that
+    node's second child, pushed or not when the node was popped. So the walk keeps,
+    per depth on the current path, which child (if any) is still to be searched, and
+    when a subtree is done climbs to the deepest depth with one: the same order
+    without a stack (numba cannot cache a recursive function, and allocating a stack
+    per query would cost more than the search)."""
+    g = geometry
+    tree, boxes = g.tree, g.tree_boxes
+    if g.counts[b, N_SEGMENTS] + g.counts[b, N_POLYGONS] + g.counts[b, N_CIRCLES] == 0:
+        return 1.0
+    best = 1.0
+    node = 0  # the root is searched without a box test
+    depth = 0
+    pending_a = 0  # bit d: the node at depth d on the path has child_a still to search
+    pending_b = 0  # ... or child_b
+    deep = g.counts[b, :0]  # the same for depths ≥ _BIT_LEVELS: 0, 1 (child_a), 2 (child_b)
+    while True:
+        shape = tree[b, node, 2]
+        if shape < 0:
+            child_a, child_b = tree[b, node, 0], tree[b, node, 1]
+            t_a = _node_entry(boxes, b, child_a, ax, ay, bx, by)
+            t_b = _node_entry(boxes, b, child_b, ax, ay, bx, by)
+            # the child entered first is searched first (child_b on a tie)
+            if t_a < t_b:
+                first, t_first, later, t_later, later_code = child_a, t_a, child_b, t_b, 2
+            else:
+                first, t_first, later, t_later, later_code = child_b, t_b, child_a, t_a, 1
+            if t_first < best:
+                if t_later < best:  # pushed under the first: searched after its subtree
+                    if depth < _BIT_LEVELS:
+                        if later_code == 1:
+                            pending_a |= 1 << depth
+                        else:
+                            pending_b |= 1 << depth
+                    else:
+                        if deep.shape[0] == 0:
+                            deep = np.zeros(tree.shape[1], dtype=np.int64)
+                        deep[depth] = later_code
+                node = first
+                depth += 1
+                continue
+            if t_later < best:
+                node = later
+                depth += 1
+                continue
+        else:
+            alpha = shape_alpha(g, b, shape, ax, ay, bx, by)
+            if alpha < best:
+                best = alpha
+        # This subtree is done: climb to the deepest node with a child still to search.
+        if pending_a == 0 and pending_b == 0 and deep.shape[0] == 0:
+            return best
+        while True:
+            if depth == 0:
+                return best
+            depth -= 1
+            node = tree[b, node, 3]
+            if depth < _BIT_LEVELS:
+                bit = 1 << depth
+                if pending_a & bit:
+                    pending_a &= ~bit
+                    node = tree[b, node, 0]
+                    break
+                if pending_b & bit:
+                    pending_b &= ~bit
+                    node = tree[b, node, 1]
+                    break
+            elif deep.shape[0] > 0 and deep[depth] != 0:
+                node = tree[b, node, deep[depth] - 1]
+                deep[depth] = 0
+                break
+        depth += 1
+
+
+# ----------------------------------------------------------------------------- batches
+
+
+@kernel
+def lines_of_sight(
+    geometry: StaticGeometry,
+    worlds: np.ndarray,
+    segments: np.ndarray,
+    skip_circles: np.ndarray,
+    out: np.ndarray,
+) -> None:
+    """``out[q] = line_of_sight(geometry, worlds[q], *segments[q], skip_circles[q])``
+    for Q queries: ``worlds`` (Q,) int64, ``segments`` (Q, 4) ``[ax, ay, bx, by]``,
+    ``skip_circles`` (Q,) int64, ``out`` (Q,) bool."""
+    for q in range(worlds.shape[0]):
+        ax, ay, bx, by = segments[q, 0], segments[q, 1], segments[q, 2], segments[q, 3]
+        out[q] = line_of_sight(geometry, worlds[q], ax, ay, bx, by, skip_circles[q])
+
+
+@kernel
+def ray_fractions(
+    geometry: StaticGeometry, worlds: np.ndarray, segments: np.ndarray, out: np.ndarray
+) -> None:
+    """``out[q] = ray_fraction(geometry, worlds[q], *segments[q])`` for Q queries:
+    ``worlds`` (Q,) int64, ``segments`` (Q, 4) ``[ax, ay, bx, by]``, ``out`` (Q,)
+    float64."""
+    for q in range(worlds.shape[0]):
+        ax, ay, bx, by = segments[q, 0], segments[q, 1], segments[q, 2], segments[q, 3]
+        out[q] = ray_fraction(geometry, worlds[q], ax, ay, bx, by)
+
+
+@inline_kernel
+def beam_fraction(
+    geometry: StaticGeometry, b: int, x: float, y: float, heading: float, reach: float
+) -> float:
+    """The :func:`ray_fraction` of the beam of length ``reach`` from (x, y) along
+    ``heading`` (rad, world frame): its free share, in [0, 1]."""
+    ex = x + reach * math.cos(heading)
+    ey = y + reach * math.sin(heading)
+    return ray_fraction(geometry, b, x, y, ex, ey)
+
+
+@kernel
+def range_scan(
+    geometry: StaticGeometry,
+    b: int,
+    x: float,
+    y: float,
+    theta: float,
+    angles: np.ndarray,
+    max_range: float,
+    out: np.ndarray,
+) -> None:
+    """The proximity scan of world ``b`` from the pose (x, y, θ): ``out[k]`` (m) is the
+    free distance along the beam at ``angles[k]`` (rad, robot frame), at most
+    ``max_range``: the :func:`ray_fraction` of the beam from (x, y) to
+    (x + max_range·cos(θ + a), y + max_range·sin(θ + a)), times ``max_range``."""
+    for k in range(angles.shape[0]):
+        out[k] = beam_fraction(geometry, b, x, y, theta + angles[k], max_range) * max_range

@@ -1,0 +1,187 @@
+"""What the single envs share: a ``gymnasium.Env`` over a batched core with B = 1."""
+
+from __future__ import annotations
+
+from typing import Any, SupportsFloat
+
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+from gymnasium.error import ResetNeeded
+
+from slam_env.actions import DISCRETE_PRIMITIVES, parse_action
+from slam_env.layouts import Layout
+from slam_env.world import World
+
+
+def check_reset_options(options: Any, env_name: str) -> None:
+    """``TypeError`` unless ``options`` is ``None`` or a mapping, ``ValueError`` unless
+    it is empty: the envs take no reset options."""
+    from collections.abc import Mapping
+
+    if options is not None and not isinstance(options, Mapping):
+        raise TypeError(
+            f"{env_name}.reset options must be a dict or None, got {type(options).__name__}"
+        )
+    if options:
+        raise ValueError(f"{env_name}.reset takes no options, got {sorted(map(str, options))}")
+
+
+class CoreEnv(gym.Env):
+    """A single env: sub-env 0 of a batched core (:class:`slam_env.raw_core.RawCore` or
+    :class:`slam_env.active_core.ActiveCore`) built with B = 1, the very code that the
+    native vector env runs for B sub-envs. Subclasses build the core and document the
+    env; this class does the rest of Gymnasium's API: reset, step, render, close."""
+
+    metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 10}
+
+    def _setup(self, core: Any, render_mode: str | None) -> None:
+        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
+            raise ValueError(
+                f"render_mode must be one of {self.metadata['render_modes']} or None, "
+                f"got {render_mode!r}"
+            )
+        self.render_mode = render_mode
+        self._core = core
+        self.config = core.config
+        self._max_speed = self.config.robot.max_speed  # m/s at action 1.0
+        self._max_turn_rate = self.config.robot.max_turn_rate  # rad/s at action 1.0
+        if self.config.action_type == "continuous":
+            self.action_space = spaces.Box(-1.0, 1.0, shape=(2,), dtype=np.float32)
+        else:
+            self.action_space = spaces.Discrete(len(DISCRETE_PRIMITIVES))
+        self.observation_space = core.observation_space
+        self._active = np.ones(1, dtype=bool)
+        self._started = False
+        self._renderer = None
+        self._trail: list[tuple[float, float]] = []
+        self._steps = 0  # since the reset, for the picture
+
+    # ------------------------------------------------------------------ API
+    def reset(
+        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[Any, dict[str, Any]]:
+        check_reset_options(options, type(self).__name__)  # before the seed is applied
+        super().reset(seed=seed)
+        core = self._core
+        layout = core.reset(0, self.np_random)
+        self._started = True
+        self._trail = []
+        self._steps = 0
+        obs, info = core.observation(0), core.info(0)
+        self._remember(info)
+        if self._renderer is not None:
+            self._renderer.set_layout(layout)
+        if self.render_mode == "human":
+            self.render()
+        return obs, info
+
+    def step(self, action: Any) -> tuple[Any, SupportsFloat, bool, bool, dict[str, Any]]:
+        if not self._started:
+            raise ResetNeeded("call reset() before step()")
+        speed_frac, turn_frac = parse_action(action, self.action_space)
+        core = self._core
+        core.rngs[0] = self.np_random  # whoever set env.np_random since the reset
+        core.step([speed_frac * self._max_speed], [turn_frac * self._max_turn_rate], self._active)
+        self._steps += 1
+        obs, info = core.observation(0), core.info(0)
+        self._remember(info)
+        reward = float(core.rewards[0])
+        terminated = bool(core.terminated[0])
+        if self.render_mode == "human":
+            self.render()
+        return obs, reward, terminated, False, info
+
+    def render(self) -> np.ndarray | None:
+        if self.render_mode is None:
+            gym.logger.warn(
+                "render() called without a render_mode; pass render_mode='rgb_array' or "
+                "'human' to gym.make"
+            )
+            return None
+        if not self._started:
+            raise ResetNeeded("call reset() before render()")
+        return self._get_renderer().render(self.render_frame())
+
+    def close(self) -> None:
+        """Release the renderer (its window, if any). As in Gymnasium's own envs the
+        episode is kept: ``step``, ``reset`` and ``render`` (which reopens what it
+        needs) still work."""
+        if self._renderer is not None:
+            self._renderer.close()
+            self._renderer = None
+
+    # ------------------------------------------------------------------ the world
+    @property
+    def world(self) -> World:
+        """The pymunk world of the current episode (after ``reset``)."""
+        if not self._started:
+            raise ResetNeeded("call reset() before accessing the world")
+        return self._core.worlds.worlds[0]
+
+    @property
+    def layout(self) -> Layout:
+        """The world of the current episode (after ``reset``)."""
+        return self.world.layout
+
+    @property
+    def n_landmarks(self) -> int:
+        """Landmarks in each world."""
+        return self._core.n_landmarks
+
+    @property
+    def n_landmark_slots(self) -> int:
+        """Landmark IDs 0 … n_landmark_slots − 1 (max ID + 1)."""
+        return self._core.n_slots
+
+    @property
+    def arena_size(self) -> tuple[float, float]:
+        """(width, height) of the arena, m."""
+        return self._core.arena_size
+
+    @property
+    def max_detections(self) -> int:
+        """Rows of the detections in the raw observation."""
+        return self._core.max_detections
+
+    def _remember(self, info: dict[str, Any]) -> None:
+        """Keep what the picture draws of the path (only when rendering)."""
+        if self.render_mode is not None:
+            pose = self._core.worlds.poses[0]
+            self._trail.append((float(pose[0]), float(pose[1])))
+
+    def _overlay(self) -> Any:
+        """The belief to draw over the world, if any."""
+        return None
+
+    def render_frame(self):
+        """The plain-data :class:`slam_env.rendering.Frame` of the current state, with
+        the sensor's visible region traced in the world and the step number."""
+        from slam_env.visibility import visible_region
+
+        frame = self._core.frame(0, self._trail, self._overlay())
+        sensor = self.config.sensor
+        frame.visible_region = visible_region(self.world, frame.pose, sensor.max_range, sensor.fov)
+        frame.step = self._steps
+        return frame
+
+    def _get_renderer(self):
+        if self._renderer is None:
+            from slam_env.rendering import Renderer
+
+            cfg = self.config
+            self._renderer = Renderer(
+                self.layout,
+                robot_radius=cfg.robot.radius,
+                max_range=cfg.sensor.max_range,
+                fov=cfg.sensor.fov,
+                render_mode=self.render_mode,
+                render_fps=self.metadata["render_fps"],
+            )
+        return self._renderer
+
+    # Pickling: the renderer (a pygame window) stays behind; it is rebuilt on demand.
+    def __getstate__(self) -> dict[str, Any]:
+        state = self.__dict__.copy()
+        state["_renderer"] = None
+        return state
