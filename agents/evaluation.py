@@ -182,7 +182,6 @@ def run_episode(
             detections.append(base.render_frame().detections_world)
 
     record(0, False)
-    world = _world_digest(info)
     state, episode_start, step = None, True, 0
     while True:
         action, state = agent.predict(
@@ -197,6 +196,29 @@ def run_episode(
         if done:
             break
 
+    return episode_record(
+        seed,
+        rows,
+        est,
+        rewards,
+        n_landmarks=int(base.n_landmarks),
+        layout=base.layout,
+        belief=base.belief_overlay(),
+        frames=frames,
+        detections_world=detections,
+    )
+
+
+def episode_record(
+    seed: int,
+    rows: Sequence[dict[str, Any]],
+    est: Sequence[np.ndarray],
+    rewards: Sequence[float],
+    **fields: Any,
+) -> EpisodeRecord:
+    """An :class:`EpisodeRecord` from an episode's infos (the reset's, then each
+    step's), estimated poses and rewards; ``fields`` are its other attributes."""
+
     def col(key: str, dtype: Any = np.float64) -> np.ndarray:
         return np.array([r[key] for r in rows], dtype=dtype)
 
@@ -207,7 +229,6 @@ def run_episode(
 
     return EpisodeRecord(
         seed=seed,
-        n_landmarks=int(base.n_landmarks),
         true_poses=np.stack([r["pose"] for r in rows]).astype(np.float64),
         est_poses=np.stack(est),
         entropy=col("entropy"),
@@ -217,11 +238,8 @@ def run_episode(
         map_rmse=metric("map_rmse"),
         collision=col("collision", bool),
         rewards=np.asarray(rewards, dtype=np.float64),
-        layout=base.layout,
-        belief=base.belief_overlay(),
-        world=world,
-        frames=frames,
-        detections_world=detections,
+        world=_world_digest(rows[0]),
+        **fields,
     )
 
 
@@ -461,15 +479,22 @@ def evaluate(
 
         from tqdm.auto import tqdm
 
+        from agents.vector_episodes import acts_on_batches, run_episodes_batched
+
         records: dict[str, list[EpisodeRecord]] = {label: [] for label in agents}
         bar = tqdm(
             total=len(agents) * episodes, desc="evaluate", unit="episode", disable=not progress
         )
+        seeds = [seed + i for i in range(episodes)]
         with bar:
             for label, agent in agents.items():
                 bar.set_postfix_str(label)
-                for i in range(episodes):
-                    records[label].append(run_episode(envs[label], agent, seed + i))
+                if acts_on_batches(agent):  # side by side on the native vector env
+                    records[label] = run_episodes_batched(agent, seeds, env_options, max_steps)
+                    bar.update(episodes)
+                    continue
+                for episode_seed in seeds:
+                    records[label].append(run_episode(envs[label], agent, episode_seed))
                     bar.update()
     finally:
         for env in envs.values():
@@ -492,7 +517,7 @@ def evaluate(
         "agents": specs,
         "episodes": episodes,
         "seed": seed,
-        "seeds": [seed + i for i in range(episodes)],
+        "seeds": seeds,
         "env_options": dict(env_options or {}),
         "max_steps": max_steps,
         "confidence": CONFIDENCE,

@@ -101,3 +101,13 @@ def test_consistency_plot_with_uneven_episodes_draws_a_band_per_agent():
     bounds = sorted({round(float(ln.get_ydata()[0]), 9) for ln in dotted})
     expected = sorted(round(v, 9) for runs in (4, 2) for v in nees_band(3, runs))
     assert bounds == expected
+
+
+def test_share_in_band_at_its_edges():
+    lower, upper = nees_band(3, 1)
+    # The band is closed: a mean on either bound is inside.
+    assert share_in_nees_band([[0.0, lower, upper]]) == 1.0
+    # A step no episode reached with a finite NEES is not counted.
+    assert share_in_nees_band([[0.0, math.inf, 3.0, upper * 2]]) == 0.5
+    mean, runs = averaged_nees([])
+    assert mean.shape == runs.shape == (0,)

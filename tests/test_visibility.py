@@ -45,6 +45,30 @@ def test_ray_angles_cover_the_field_of_view():
         sensor_ray_angles(FOV, math.nan)
 
 
+def test_ray_angles_at_their_limits():
+    # A wedge narrower than the spacing: its two edges only.
+    assert sensor_ray_angles(0.01, math.radians(1.0)) == pytest.approx((-0.005, 0.005))
+    # All around with a coarse spacing: still 8 rays, 45° apart.
+    around = sensor_ray_angles(2.0 * math.pi, 2.0)
+    assert len(around) == 8 and np.diff(around) == pytest.approx(np.full(7, math.pi / 4))
+    # The default spacing is 1°, fine enough for a post several metres away.
+    assert pytest.approx(math.radians(1.0)) == RAY_SPACING
+    with pytest.raises(ValueError, match="spacing"):
+        sensor_ray_angles(FOV, 0.0)
+
+
+def test_a_short_range_is_a_valid_range():
+    class OpenWorld:
+        def range_scan(self, x, y, theta, angles, max_range):
+            return [max_range] * len(angles)
+
+    region = visible_region(OpenWorld(), (0.0, 0.0, 0.0), 0.5, math.pi / 2)
+    assert region[0] == pytest.approx([0.0, 0.0])
+    assert np.hypot(*region[1:].T) == pytest.approx(np.full(len(region) - 1, 0.5))
+    with pytest.raises(ValueError, match="max_range"):
+        visible_region(OpenWorld(), (0.0, 0.0, 0.0), 0.0, math.pi / 2)
+
+
 # Landmark 0 hides behind the box, 3 behind landmark 1's post; 1 and 2 are in view,
 # 4 is in range but behind the robot.
 HIDE_AND_SEEK = Layout(

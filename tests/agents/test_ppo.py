@@ -276,3 +276,29 @@ def test_the_shipped_policy_is_small_and_fits_the_default_env():
     action, _ = agent.predict(obs)
     assert env.action_space.contains(action)
     env.close()
+
+
+def test_ppo_episodes_side_by_side_equal_the_single_env_episodes(trained):
+    # evaluate runs a policy's episodes on the native vector env; the same seeds give
+    # the very same episodes as the single env, across batches (5 seeds, 2 at a time).
+    from agents.base import RandomAgent
+    from agents.evaluation import run_episode
+    from agents.vector_episodes import acts_on_batches, run_episodes_batched
+
+    _, path = trained
+    env = make_env(SMALL_WORLD, 40)
+    agent = load_ppo_agent(path, env)
+    assert acts_on_batches(agent) and not acts_on_batches(RandomAgent(env, seed=0))
+    seeds = [7, 8, 9, 10, 11]
+    batched = run_episodes_batched(agent, seeds, SMALL_WORLD, 40, batch=2)
+    for seed, side_by_side in zip(seeds, batched, strict=True):
+        alone = run_episode(env, agent, seed)
+        assert side_by_side.seed == seed and side_by_side.world == alone.world
+        np.testing.assert_equal(side_by_side.metrics(), alone.metrics())  # NaN equals NaN
+        for name in ("true_poses", "est_poses", "entropy", "pose_nees", "rewards"):
+            np.testing.assert_array_equal(getattr(side_by_side, name), getattr(alone, name))
+        np.testing.assert_array_equal(
+            side_by_side.belief.landmark_means, alone.belief.landmark_means
+        )
+        assert side_by_side.layout == alone.layout
+    env.close()
