@@ -1,6 +1,7 @@
 """The ``slam-env`` command (also ``python -m agents``).
 
     slam-env train    [--config YAML] [--total-steps N] [--n-envs K] [--seed S] [--out DIR]
+                      [--vectorization native|subproc|dummy]
     slam-env evaluate --agents random,frontier,infogain,ppo:PATH [--episodes 20] [--seed 0]
                       [--out DIR] [--max-steps N] [--env-option KEY=VALUE ...]
     slam-env demo     [--agent SPEC] [--seed S] [--out DIR] [--no-gif] [--max-steps N]
@@ -27,6 +28,7 @@ from typing import Any, NoReturn
 import yaml
 
 import slam_env
+from agents.training import VECTORIZATIONS
 
 PROG = "slam-env"
 
@@ -127,7 +129,13 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("train", help="train a PPO policy", description="Train PPO.")
     p.add_argument("--config", type=Path, help="training config YAML (default: ppo_default.yaml)")
     p.add_argument("--total-steps", type=_positive_int, help="env steps to train for")
-    p.add_argument("--n-envs", type=_positive_int, help="parallel envs (processes)")
+    p.add_argument("--n-envs", type=_positive_int, help="sub-envs stepped together")
+    p.add_argument(
+        "--vectorization",
+        choices=VECTORIZATIONS,
+        help="native: one vector env steps them all (default); subproc: a process each; "
+        "dummy: one after the other",
+    )
     p.add_argument("--seed", type=_non_negative_int, help="training seed")
     p.add_argument("--out", type=str, help="output folder (model, config, logs)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
@@ -173,6 +181,7 @@ def _run_train(args: argparse.Namespace) -> int:
         args.config,
         total_timesteps=args.total_steps,
         n_envs=args.n_envs,
+        vectorization=args.vectorization,
         seed=args.seed,
         out_dir=args.out,
         progress_bar=False if args.no_progress else None,
@@ -186,8 +195,14 @@ def _run_train(args: argparse.Namespace) -> int:
         s = json.loads(summary_file.read_text())
         console.print(
             f"{s['timesteps']} env steps in {s['wall_time_s']:.1f} s "
-            f"({s['env_steps_per_s']} steps/s with {s['n_envs']} envs)"
+            f"({s['env_steps_per_s']} steps/s with {s['n_envs']} envs, {s['vectorization']})"
         )
+        if s["env_step_share"] is not None:
+            console.print(
+                f"wall time: {100 * s['env_step_share']:.0f}% env stepping, "
+                f"{100 * s['gradient_updates_share']:.0f}% gradient updates, "
+                f"{100 * s['other_share']:.0f}% the rest"
+            )
     return 0
 
 

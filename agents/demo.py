@@ -2,13 +2,16 @@
 
 ``demo()`` writes into ``out_dir``:
 
-* ``demo.gif``: the episode as rendered by the env (``rgb_array``) with the belief
-  overlay (estimated pose and landmarks with 95% ellipses), subsampled to at most
-  ``gif_max_frames`` frames so that the file stays a few MB;
+* ``demo.gif``: the episode as rendered by the env (``rgb_array``): the true and
+  estimated paths, the sensor's visible region, the belief with 95% ellipses, the step,
+  the live entropy, map RMSE and NEES, and a legend (see :mod:`slam_env.rendering`),
+  subsampled to at most ``gif_max_frames`` frames so that the file stays a few MB;
 * ``final_map.png``: the world, the true and estimated trajectories, the detections
   and the final belief with 95% ellipses;
-* ``demo_metrics.json``: the episode's metrics (those of :mod:`agents.evaluation`),
-  which it also prints.
+* ``demo_consistency.png``: the pose NEES over time inside its 95% χ² band for one
+  episode, and the map RMSE over time;
+* ``demo_metrics.json``: the episode's metrics (those of :mod:`agents.evaluation`, and
+  the share of steps with the NEES inside its band), which it also prints.
 """
 
 from __future__ import annotations
@@ -22,7 +25,15 @@ from typing import Any
 import numpy as np
 import yaml
 
-from agents.evaluation import METRICS, _json_safe, run_episode
+from agents.evaluation import (
+    AGENT_METRICS,
+    CONFIDENCE,
+    METRICS,
+    POSE_DOF,
+    _json_safe,
+    consistency_series,
+    run_episode,
+)
 from agents.registry import SHIPPED_POLICY, agent_label, make_agent, make_env
 
 #: The agent the demo runs by default. Set it to ``"ppo"`` (the shipped policy,
@@ -102,7 +113,8 @@ def demo(
     """Run ``agent_spec`` (default :func:`default_agent_spec`) for one episode on the
     default world (``env_options`` overrides it; a PPO policy gets the options it was
     trained with unless they are given) from ``reset(seed=seed)``, write the GIF (unless
-    ``gif=False``), the final map and the metrics, print the metrics when ``verbose``."""
+    ``gif=False``), the final map, the consistency plot and the metrics, print the
+    metrics when ``verbose``."""
     spec = (agent_spec or default_agent_spec()).strip()
     if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
         raise ValueError(f"seed must be an int >= 0, got {seed!r}")
@@ -123,12 +135,14 @@ def demo(
     finally:
         env.close()
 
-    from slam_env.plotting import plot_episode
+    from slam_env.metrics import share_in_nees_band
+    from slam_env.plotting import plot_consistency, plot_episode
 
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     label = agent_label(spec)
     metrics = record.metrics()
+    metrics["nees_in_band"] = share_in_nees_band([record.pose_nees], POSE_DOF, CONFIDENCE)
     files: dict[str, Path] = {}
     if gif:
         files["gif"] = out / "demo.gif"
@@ -146,6 +160,14 @@ def demo(
         belief=record.belief,
         title=title,
         path=files["map_png"],
+    ).clear()
+    files["consistency_png"] = out / "demo_consistency.png"
+    plot_consistency(
+        {label: consistency_series([record])},
+        files["consistency_png"],
+        dof=POSE_DOF,
+        confidence=CONFIDENCE,
+        title=f"{label}, seed {seed}",
     ).clear()
     files["metrics_json"] = out / "demo_metrics.json"
     payload = {"agent": spec, "seed": seed, "env_options": env_options or {}, "metrics": metrics}
@@ -167,7 +189,7 @@ def print_demo(result: DemoResult, console: Any = None) -> None:
     table.add_column("metric", style="bold")
     table.add_column("value", justify="right")
     table.add_column("meaning")
-    for name, description in METRICS.items():
+    for name, description in {**METRICS, **AGENT_METRICS}.items():
         value = result.metrics[name]
         shown = "–" if not math.isfinite(value) else f"{value:.4g}"
         table.add_row(name, shown, escape(description))

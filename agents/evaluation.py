@@ -21,12 +21,16 @@ Step averages run over the steps after ``reset`` (at reset the pose is known exa
 ``summary.csv`` holds, per agent, each metric's mean and the half-width of its 95%
 confidence interval (Student t, n − 1 dof; empty for one episode); episodes where a
 metric is undefined (``map_rmse`` with nothing mapped) are left out of its mean, and
-``<metric>_n`` says how many counted. ``steps.csv.gz`` holds every step (belief
+``<metric>_n`` says how many counted. It also holds ``nees_in_band``: the share of
+steps at which the pose NEES averaged over the agent's episodes lies inside its 95% χ²
+band for that many episodes (about 0.95 for a consistent filter; see
+:func:`slam_env.metrics.share_in_nees_band`). ``steps.csv.gz`` holds every step (belief
 entropy, landmarks known, errors, NEES, collision, true and estimated pose);
 ``results.json`` holds the summary and episode tables and the settings;
 ``trajectories.png`` shows each agent's trajectory and final belief (95% ellipses) in
 one episode, ``metrics_over_time.png`` the entropy, share mapped and pose error over
-time (mean ± std over episodes).
+time (mean ± std over episodes), ``consistency.png`` the pose NEES averaged over the
+episodes inside its 95% χ² band, and the map RMSE, over time.
 """
 
 from __future__ import annotations
@@ -48,6 +52,7 @@ from scipy.stats import t as student_t
 
 from agents.base import Agent
 from agents.registry import agent_label, make_agent, make_env
+from slam_env.metrics import share_in_nees_band
 
 #: Per-episode metrics, in table order, with their descriptions.
 METRICS: dict[str, str] = {
@@ -62,6 +67,11 @@ METRICS: dict[str, str] = {
     "steps": "episode length [steps]",
 }
 CONFIDENCE = 0.95
+#: Per-agent figures over all its episodes at once (no confidence interval).
+AGENT_METRICS: dict[str, str] = {
+    "nees_in_band": "steps with the mean pose NEES in its 95% χ² band [share]",
+}
+POSE_DOF = 3  # x, y, θ: the pose NEES's degrees of freedom
 
 
 # ---------------------------------------------------------------------- statistics
@@ -172,7 +182,6 @@ def run_episode(
             detections.append(base.render_frame().detections_world)
 
     record(0, False)
-    world = _world_digest(info)
     state, episode_start, step = None, True, 0
     while True:
         action, state = agent.predict(
@@ -187,6 +196,29 @@ def run_episode(
         if done:
             break
 
+    return episode_record(
+        seed,
+        rows,
+        est,
+        rewards,
+        n_landmarks=int(base.n_landmarks),
+        layout=base.layout,
+        belief=base.belief_overlay(),
+        frames=frames,
+        detections_world=detections,
+    )
+
+
+def episode_record(
+    seed: int,
+    rows: Sequence[dict[str, Any]],
+    est: Sequence[np.ndarray],
+    rewards: Sequence[float],
+    **fields: Any,
+) -> EpisodeRecord:
+    """An :class:`EpisodeRecord` from an episode's infos (the reset's, then each
+    step's), estimated poses and rewards; ``fields`` are its other attributes."""
+
     def col(key: str, dtype: Any = np.float64) -> np.ndarray:
         return np.array([r[key] for r in rows], dtype=dtype)
 
@@ -197,7 +229,6 @@ def run_episode(
 
     return EpisodeRecord(
         seed=seed,
-        n_landmarks=int(base.n_landmarks),
         true_poses=np.stack([r["pose"] for r in rows]).astype(np.float64),
         est_poses=np.stack(est),
         entropy=col("entropy"),
@@ -207,11 +238,8 @@ def run_episode(
         map_rmse=metric("map_rmse"),
         collision=col("collision", bool),
         rewards=np.asarray(rewards, dtype=np.float64),
-        layout=base.layout,
-        belief=base.belief_overlay(),
-        world=world,
-        frames=frames,
-        detections_world=detections,
+        world=_world_digest(rows[0]),
+        **fields,
     )
 
 
@@ -227,14 +255,18 @@ class EvaluationResult:
     records: dict[str, list[EpisodeRecord]] = field(repr=False, default_factory=dict)
 
 
-def summarize(label: str, spec: str, rows: Sequence[dict[str, Any]]) -> dict[str, Any]:
-    """One summary row: mean, 95% CI half-width and count of every metric."""
+def summarize(
+    label: str, spec: str, rows: Sequence[dict[str, Any]], records: Sequence[EpisodeRecord]
+) -> dict[str, Any]:
+    """One summary row: mean, 95% CI half-width and count of every metric, then the
+    :data:`AGENT_METRICS` of the agent's episode ``records``."""
     out: dict[str, Any] = {"agent": label, "spec": spec, "episodes": len(rows)}
     for name in METRICS:
         mean, half, n = mean_ci([r[name] for r in rows])
         out[f"{name}_mean"] = mean
         out[f"{name}_ci95"] = half
         out[f"{name}_n"] = n
+    out["nees_in_band"] = share_in_nees_band([r.pose_nees for r in records], POSE_DOF, CONFIDENCE)
     return out
 
 
@@ -242,7 +274,7 @@ def summary_columns() -> list[str]:
     cols = ["agent", "spec", "episodes"]
     for name in METRICS:
         cols += [f"{name}_mean", f"{name}_ci95", f"{name}_n"]
-    return cols
+    return cols + list(AGENT_METRICS)
 
 
 def episode_columns() -> list[str]:
@@ -354,6 +386,8 @@ def format_summary(result: EvaluationResult) -> Any:
     for name in METRICS:  # the CSV's names; results.json spells them out
         cells = [_cell(row[f"{name}_mean"], row[f"{name}_ci95"]) for row in result.summary]
         table.add_row(name, *cells)
+    for name in AGENT_METRICS:
+        table.add_row(name, *(_cell(row[name], math.nan) for row in result.summary))
     return table
 
 
@@ -363,8 +397,14 @@ def print_summary(result: EvaluationResult, console: Any = None) -> None:
     (console or Console()).print(format_summary(result))
 
 
+def consistency_series(records: Sequence[EpisodeRecord]) -> dict[str, list[np.ndarray]]:
+    """The per-step pose NEES and map RMSE of episodes, as
+    :func:`slam_env.plotting.plot_consistency` takes them."""
+    return {"pose_nees": [r.pose_nees for r in records], "map_rmse": [r.map_rmse for r in records]}
+
+
 def _plot(records: dict[str, list[EpisodeRecord]], plot_index: int, out: Path) -> dict[str, Path]:
-    from slam_env.plotting import plot_metrics_over_time, plot_trajectories_grid
+    from slam_env.plotting import plot_consistency, plot_metrics_over_time, plot_trajectories_grid
 
     files: dict[str, Path] = {}
     per_agent = {}
@@ -388,6 +428,10 @@ def _plot(records: dict[str, list[EpisodeRecord]], plot_index: int, out: Path) -
     path = out / "metrics_over_time.png"
     plot_metrics_over_time(series, path, title="mean ± std over episodes").clear()
     files["metrics_png"] = path
+    path = out / "consistency.png"
+    consistency = {label: consistency_series(recs) for label, recs in records.items()}
+    plot_consistency(consistency, path, dof=POSE_DOF, confidence=CONFIDENCE).clear()
+    files["consistency_png"] = path
     return files
 
 
@@ -407,10 +451,10 @@ def evaluate(
     """Run every agent of ``agent_specs`` (specs of :func:`agents.registry.make_agent`,
     or one comma-separated string) for ``episodes`` episodes on the same seeded worlds
     (episode i: ``reset(seed=seed + i)``), write ``summary.csv``, ``episodes.csv``,
-    ``results.json``, ``trajectories.png`` (episode ``plot_episode``) and
-    ``metrics_over_time.png`` into ``out_dir``, print the summary when ``verbose``,
-    and return an :class:`EvaluationResult`. All agents are built (and PPO files
-    checked against the env) before anything runs."""
+    ``results.json``, ``trajectories.png`` (episode ``plot_episode``),
+    ``metrics_over_time.png`` and ``consistency.png`` into ``out_dir``, print the
+    summary when ``verbose``, and return an :class:`EvaluationResult`. All agents are
+    built (and PPO files checked against the env) before anything runs."""
     from agents.registry import parse_agent_specs
 
     specs = parse_agent_specs(agent_specs) if isinstance(agent_specs, str) else list(agent_specs)
@@ -435,15 +479,22 @@ def evaluate(
 
         from tqdm.auto import tqdm
 
+        from agents.vector_episodes import acts_on_batches, run_episodes_batched
+
         records: dict[str, list[EpisodeRecord]] = {label: [] for label in agents}
         bar = tqdm(
             total=len(agents) * episodes, desc="evaluate", unit="episode", disable=not progress
         )
+        seeds = [seed + i for i in range(episodes)]
         with bar:
             for label, agent in agents.items():
                 bar.set_postfix_str(label)
-                for i in range(episodes):
-                    records[label].append(run_episode(envs[label], agent, seed + i))
+                if acts_on_batches(agent):  # side by side on the native vector env
+                    records[label] = run_episodes_batched(agent, seeds, env_options, max_steps)
+                    bar.update(episodes)
+                    continue
+                for episode_seed in seeds:
+                    records[label].append(run_episode(envs[label], agent, episode_seed))
                     bar.update()
     finally:
         for env in envs.values():
@@ -458,7 +509,7 @@ def evaluate(
             row.update(rec.metrics())
             rows.append(row)
         episode_rows += rows
-        summary_rows.append(summarize(label, spec, rows))
+        summary_rows.append(summarize(label, spec, rows, recs))
 
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
@@ -466,7 +517,7 @@ def evaluate(
         "agents": specs,
         "episodes": episodes,
         "seed": seed,
-        "seeds": [seed + i for i in range(episodes)],
+        "seeds": seeds,
         "env_options": dict(env_options or {}),
         "max_steps": max_steps,
         "confidence": CONFIDENCE,
@@ -483,7 +534,7 @@ def evaluate(
     _write_steps(files["steps_csv"], records)
     payload = {
         "settings": settings,
-        "metrics": METRICS,
+        "metrics": {**METRICS, **AGENT_METRICS},
         "summary": summary_rows,
         "episodes": episode_rows,
     }

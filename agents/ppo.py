@@ -66,7 +66,12 @@ class PPOAgent:
         model: the ``stable_baselines3.PPO`` model.
         path: the file it was loaded from.
         config: the training config saved next to it (``<name>.yaml``), or ``None``.
+
+    Its action depends on the observation alone, so ``evaluate`` runs its episodes
+    side by side on the native vector env (:mod:`agents.vector_episodes`).
     """
+
+    acts_on_batches = True
 
     def __init__(
         self,

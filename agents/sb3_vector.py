@@ -58,6 +58,17 @@ class InfoRow(MutableMapping):
         self._own: dict[str, Any] = {}
         self._deleted: set[str] = set()
 
+    @property
+    def vector_info(self) -> dict[str, Any]:
+        """The vector info this row reads (shared by the rows of one step), so that a
+        reader of many rows can take a key's (B,) array in one go."""
+        return self._vector
+
+    @property
+    def index(self) -> int:
+        """The sub-env this row reads in :attr:`vector_info`."""
+        return self._index
+
     def _reported(self) -> list[str]:
         info, i = self._vector, self._index
         return [

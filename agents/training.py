@@ -1,15 +1,24 @@
 """PPO training on ``slam_env/ActiveSLAM-v0`` (egocentric belief observation).
 
-``train(config)`` runs stable-baselines3 PPO with parallel envs, a progress bar,
-TensorBoard logs, periodic checkpoints and periodic evaluation on a separately
-seeded env, and writes into ``config.out_dir``::
+``train(config)`` runs stable-baselines3 PPO on ``n_envs`` sub-envs (by default the
+native vector env, which steps them all in one call; ``vectorization`` picks worker
+processes or in-process single envs instead), with a progress bar, TensorBoard logs,
+periodic checkpoints and periodic evaluation on a separately seeded env, and writes
+into ``config.out_dir``::
 
     <model_name>.zip            the final policy (load it with ``ppo:PATH``)
     <model_name>.yaml           the resolved config it was trained with
-    training_summary.json       steps, wall time, env steps/s, last/best evaluation
+    training_summary.json       steps, wall time, env steps/s, the shares of the wall
+                                time in env stepping and in gradient updates,
+                                last/best evaluation
     checkpoints/<model_name>_<N>_steps.zip
     eval/best_model.zip, eval/evaluations.npz
     tb/<model_name>_1/          TensorBoard logs (``tensorboard --logdir OUT/tb``)
+
+Besides SB3's own scalars, TensorBoard gets the SLAM metrics of the training episodes
+under ``slam/`` and of the evaluation episodes under ``slam_eval/``
+(:mod:`agents.slam_callbacks`); the best model is the evaluation's best by
+:data:`agents.slam_metrics.BEST_MODEL_CRITERION`.
 
 The config comes from a YAML file (``agents/configs/ppo_default.yaml`` holds every
 key with its default); unknown keys and wrong types are errors, never ignored.
@@ -21,7 +30,6 @@ import dataclasses
 import json
 import math
 import time
-import warnings
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -30,10 +38,15 @@ from typing import Any
 import gymnasium as gym
 import yaml
 
-from agents.registry import make_env
+from agents.registry import ENV_ID, make_env
+from agents.slam_metrics import BEST_MODEL_CRITERION
 
 DEFAULT_CONFIG_PATH = Path(__file__).resolve().parent / "configs" / "ppo_default.yaml"
 START_METHODS = (None, "fork", "forkserver", "spawn")
+#: How the training envs are stepped: ``native`` one vector env stepping every sub-env
+#: in one call (:mod:`agents.sb3_vector`), ``subproc`` one single env per worker process
+#: (SB3's ``SubprocVecEnv``), ``dummy`` single envs one after the other in-process.
+VECTORIZATIONS = ("native", "subproc", "dummy")
 ACTIVATIONS = ("tanh", "relu")
 
 
@@ -68,12 +81,13 @@ class TrainConfig:
     """Everything ``train`` needs. Frequencies count env steps (all envs together)."""
 
     total_timesteps: int = 1_000_000
-    n_envs: int = 2  # SubprocVecEnv workers; 1 runs in-process (DummyVecEnv)
+    n_envs: int = 2  # sub-envs stepped together (worker processes for "subproc")
+    vectorization: str = "native"  # one of VECTORIZATIONS
     seed: int = 0
     env_options: dict[str, Any] = field(default_factory=dict)  # ActiveSLAMEnv options
     max_episode_steps: int | None = None  # None: the registered 500
     torch_threads: int = 1  # torch.set_num_threads per process
-    start_method: str | None = None  # SubprocVecEnv start method; None: SB3's default
+    start_method: str | None = None  # "subproc" workers' start method; None: SB3's default
     progress_bar: bool = True
     tensorboard: bool = True
     out_dir: str = "runs/ppo"
@@ -159,6 +173,12 @@ def validate_config(cfg: TrainConfig) -> TrainConfig:
         cfg.max_episode_steps,
         "null or an int >= 1",
     )
+    _check(
+        cfg.vectorization in VECTORIZATIONS,
+        "vectorization",
+        cfg.vectorization,
+        f"one of {VECTORIZATIONS}",
+    )
     _check(cfg.start_method in START_METHODS, "start_method", cfg.start_method, str(START_METHODS))
     for name in ("progress_bar", "tensorboard"):
         v = getattr(cfg, name)
@@ -241,6 +261,31 @@ class EnvFactory:
         return make_env(self.env_options, self.max_steps)
 
 
+def make_train_vec_env(cfg: TrainConfig, n_envs: int, seed: int) -> Any:
+    """The SB3 ``VecEnv`` of ``n_envs`` sub-envs that ``cfg.vectorization`` names, with
+    episode statistics (``Monitor``/``VecMonitor``); sub-env i is seeded ``seed + i``
+    at the first reset, whichever the vectorization, so all three run the same
+    episodes."""
+    from stable_baselines3.common.env_util import make_vec_env
+    from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv, VecMonitor
+
+    if cfg.vectorization == "native":
+        from agents.sb3_vector import make_sb3_vec_env
+
+        kwargs = dict(cfg.env_options)
+        if cfg.max_episode_steps is not None:
+            kwargs["max_episode_steps"] = cfg.max_episode_steps
+        return VecMonitor(make_sb3_vec_env(ENV_ID, n_envs, seed=seed, **kwargs))
+    factory = EnvFactory(dict(cfg.env_options), cfg.max_episode_steps, cfg.torch_threads)
+    if cfg.vectorization == "subproc":
+        vec_cls, vec_kwargs = SubprocVecEnv, {"start_method": cfg.start_method}
+    else:
+        vec_cls, vec_kwargs = DummyVecEnv, None
+    return make_vec_env(
+        factory, n_envs=n_envs, seed=seed, vec_env_cls=vec_cls, vec_env_kwargs=vec_kwargs
+    )
+
+
 def _check_env(cfg: TrainConfig) -> None:
     """Fail here, with the env's message, rather than in a worker process."""
     env = make_env(cfg.env_options, cfg.max_episode_steps)
@@ -257,24 +302,11 @@ def _check_env(cfg: TrainConfig) -> None:
 
 
 def _make_callbacks(cfg: TrainConfig, out: Path, eval_env: Any) -> list[Any]:
-    from stable_baselines3.common.callbacks import CheckpointCallback, EvalCallback
+    from stable_baselines3.common.callbacks import CheckpointCallback
 
-    class SeededEvalCallback(EvalCallback):
-        """Evaluates on the same ``eval_seed`` worlds every time, so that successive
-        evaluations (and the best model) compare like with like."""
+    from agents.slam_callbacks import SlamEvalCallback, SlamMetricsCallback
 
-        def _init_callback(self) -> None:
-            with warnings.catch_warnings():
-                # Subproc training env vs in-process eval env is intended.
-                warnings.filterwarnings("ignore", message="Training and eval env are not")
-                super()._init_callback()
-
-        def _on_step(self) -> bool:
-            if self.eval_freq > 0 and self.n_calls % self.eval_freq == 0:
-                self.eval_env.seed(cfg.eval_seed)
-            return super()._on_step()
-
-    callbacks: list[Any] = []
+    callbacks: list[Any] = [SlamMetricsCallback()]
     if cfg.checkpoint_freq > 0:
         callbacks.append(
             CheckpointCallback(
@@ -285,8 +317,9 @@ def _make_callbacks(cfg: TrainConfig, out: Path, eval_env: Any) -> list[Any]:
         )
     if cfg.eval_freq > 0:
         callbacks.append(
-            SeededEvalCallback(
+            SlamEvalCallback(
                 eval_env,
+                eval_seed=cfg.eval_seed,
                 n_eval_episodes=cfg.eval_episodes,
                 eval_freq=max(cfg.eval_freq // cfg.n_envs, 1),
                 log_path=str(out / "eval"),
@@ -319,9 +352,8 @@ def train(config: TrainConfig | Mapping[str, Any] | str | Path | None = None) ->
     """Train PPO as ``config`` says (a :class:`TrainConfig`, a mapping, a YAML path,
     or ``None`` for the defaults) and return the path of the saved ``.zip``."""
     import torch
-    from stable_baselines3 import PPO
-    from stable_baselines3.common.env_util import make_vec_env
-    from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv
+
+    from agents.train_timing import StepTimer, TimedPPO, time_shares
 
     if isinstance(config, TrainConfig):
         cfg = validate_config(config)
@@ -337,22 +369,19 @@ def train(config: TrainConfig | Mapping[str, Any] | str | Path | None = None) ->
     model_path = out / f"{cfg.model_name}.zip"
     _write_yaml(cfg, out / f"{cfg.model_name}.yaml")
 
-    factory = EnvFactory(dict(cfg.env_options), cfg.max_episode_steps, cfg.torch_threads)
-    if cfg.n_envs == 1:
-        vec_cls, vec_kwargs = DummyVecEnv, None
-    else:
-        vec_cls, vec_kwargs = SubprocVecEnv, {"start_method": cfg.start_method}
-    train_env = make_vec_env(
-        factory, n_envs=cfg.n_envs, seed=cfg.seed, vec_env_cls=vec_cls, vec_env_kwargs=vec_kwargs
-    )
+    train_env = StepTimer(make_train_vec_env(cfg, cfg.n_envs, cfg.seed))
     eval_env = None
     interrupted = False
     try:
         if cfg.eval_freq > 0:
-            eval_env = make_vec_env(factory, n_envs=1, seed=cfg.eval_seed)
+            # One in-process sub-env: the same held-out episodes for every vectorization.
+            eval_cfg = dataclasses.replace(
+                cfg, vectorization="native" if cfg.vectorization == "native" else "dummy"
+            )
+            eval_env = make_train_vec_env(eval_cfg, 1, cfg.eval_seed)
         p = cfg.ppo
         activation = {"tanh": torch.nn.Tanh, "relu": torch.nn.ReLU}[p.activation]
-        model = PPO(
+        model = TimedPPO(
             "MlpPolicy",
             train_env,
             learning_rate=p.learning_rate,
@@ -389,17 +418,23 @@ def train(config: TrainConfig | Mapping[str, Any] | str | Path | None = None) ->
         except KeyboardInterrupt:
             interrupted = True  # keep what was learnt so far
         wall = time.perf_counter() - start
+        shares = time_shares(wall, train_env.seconds, model.update_seconds)
         save_policy_file(model, model_path)
-        evals = [c for c in callbacks if hasattr(c, "best_mean_reward")]
+        evals = [c for c in callbacks if hasattr(c, "best_slam")]
         summary = {
             "model": str(model_path),
             "timesteps": int(model.num_timesteps),
             "wall_time_s": round(wall, 3),
             "env_steps_per_s": round(model.num_timesteps / wall, 1) if wall > 0 else None,
             "n_envs": cfg.n_envs,
+            "vectorization": cfg.vectorization,
+            **shares,
             "interrupted": interrupted,
             "last_eval_mean_reward": _finite(evals[0].last_mean_reward) if evals else None,
             "best_eval_mean_reward": _finite(evals[0].best_mean_reward) if evals else None,
+            "last_eval_slam": _finite_map(evals[0].last_slam) if evals else None,
+            "best_eval_slam": _finite_map(evals[0].best_slam) if evals else None,
+            "best_model_criterion": BEST_MODEL_CRITERION,
         }
         (out / "training_summary.json").write_text(json.dumps(summary, indent=2) + "\n")
         if interrupted:
@@ -423,3 +458,7 @@ def _close(vec_env: Any, quietly: bool) -> None:
 
 def _finite(x: float) -> float | None:
     return float(x) if math.isfinite(x) else None
+
+
+def _finite_map(figures: Mapping[str, float] | None) -> dict[str, float | None] | None:
+    return None if figures is None else {k: _finite(v) for k, v in figures.items()}

@@ -24,7 +24,10 @@ from slam_env.overlay import BeliefOverlay
 from slam_env.single_env import CoreEnv
 from slam_env.wrappers import DEFAULT_GATE, ActiveSLAMRewardWeights
 
-__all__ = ["DEFAULT_SCAN_BEAMS", "ActiveSLAMEnv"]
+__all__ = ["DEFAULT_SCAN_BEAMS", "LIVE_FIGURES", "ActiveSLAMEnv"]
+
+# The belief's figures (``info`` keys) shown live beside the rendered map.
+LIVE_FIGURES = ("entropy", "map_rmse", "pose_nees")
 
 
 class ActiveSLAMEnv(CoreEnv):
@@ -93,6 +96,10 @@ class ActiveSLAMEnv(CoreEnv):
         # A batch of one: the native vector env runs the same core for B sub-envs.
         self._setup(ActiveCore(config, 1, opts), render_mode)
         self.options = opts
+        # What render() draws beyond the belief: the estimated path and live figures,
+        # kept only when rendering.
+        self._estimated_trail: list[tuple[float, float]] = []
+        self._figures: dict[str, float] = {}
 
     @property
     def filter(self) -> EKFSLAM:
@@ -109,8 +116,23 @@ class ActiveSLAMEnv(CoreEnv):
         truth beside it, if wanted)."""
         return self._core.belief_overlay(0, true_landmarks)
 
+    def _remember(self, info: dict[str, Any]) -> None:
+        """Keep the true and estimated positions and the live figures (map_rmse is
+        absent until a landmark is mapped) for the picture."""
+        if self.render_mode is None:
+            return
+        super()._remember(info)
+        if self._steps == 0:
+            self._estimated_trail = []
+        x, y = self.filter.pose[:2].tolist()
+        self._estimated_trail.append((x, y))
+        self._figures = {name: info[name] for name in LIVE_FIGURES if name in info}
+
     def _overlay(self) -> BeliefOverlay:
-        return self.belief_overlay()
+        overlay = self.belief_overlay()
+        overlay.trail = np.array(self._estimated_trail, dtype=np.float64).reshape(-1, 2)
+        overlay.figures = dict(self._figures)
+        return overlay
 
 
 # ActiveSLAMEnv's own arguments, for the list of valid names in errors.

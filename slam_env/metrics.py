@@ -4,6 +4,8 @@ estimate at a time (numpy; the equations the kernels share are theirs)."""
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 
@@ -87,3 +89,49 @@ def nees_band(dof: int, runs: int, confidence: float = 0.95) -> tuple[float, flo
     tail = (1.0 - confidence) / 2.0
     total = runs * dof
     return chi2_ppf(tail, total) / runs, chi2_ppf(1.0 - tail, total) / runs
+
+
+def averaged_nees(episodes: Sequence[Any]) -> tuple[np.ndarray, np.ndarray]:
+    """The NEES averaged over episodes step by step: ``(mean, runs)``, two (T_max,)
+    arrays over the episodes' per-step NEES (1-D, lengths may differ). A step averages
+    the episodes that reached it with a finite NEES (``runs`` of them; NaN where none)."""
+    eps = [np.asarray(e, dtype=np.float64).reshape(-1) for e in episodes]
+    t_max = max((e.size for e in eps), default=0)
+    total = np.zeros(t_max)
+    runs = np.zeros(t_max, dtype=np.int64)
+    for e in eps:
+        ok = np.isfinite(e)
+        total[: e.size] += np.where(ok, e, 0.0)
+        runs[: e.size] += ok
+    with np.errstate(invalid="ignore", divide="ignore"):
+        mean = np.where(runs > 0, total / np.maximum(runs, 1), np.nan)
+    return mean, runs
+
+
+def nees_bands(dof: int, runs: Any, confidence: float = 0.95) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`nees_band` for each entry of ``runs`` (an int array, e.g. the episodes
+    averaged at each step): (lower, upper) arrays of its shape, NaN where runs is 0."""
+    runs = np.asarray(runs, dtype=np.int64)
+    lower = np.full(runs.shape, np.nan)
+    upper = np.full(runs.shape, np.nan)
+    for n in np.unique(runs[runs > 0]).tolist():
+        lower[runs == n], upper[runs == n] = nees_band(dof, n, confidence)
+    return lower, upper
+
+
+def share_in_nees_band(
+    episodes: Sequence[Any], dof: int = 3, confidence: float = 0.95, first_step: int = 1
+) -> float:
+    """The share of steps (from ``first_step``, among those some episode reached with a
+    finite NEES) at which the NEES averaged over the episodes lies inside its two-sided
+    ``confidence`` χ² band for that many episodes (:func:`nees_band`): about
+    ``confidence`` for a consistent filter. NaN when there is no such step. Step 0, the
+    reset, is left out by default: the pose is known exactly there (NEES 0)."""
+    mean, runs = averaged_nees(episodes)
+    mean, runs = mean[first_step:], runs[first_step:]
+    counted = runs > 0
+    if not counted.any():
+        return math.nan
+    lower, upper = nees_bands(dof, runs, confidence)
+    inside = counted & (mean >= lower) & (mean <= upper)
+    return float(np.count_nonzero(inside) / np.count_nonzero(counted))

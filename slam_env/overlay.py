@@ -15,6 +15,41 @@ CHI2_2DOF_95 = 5.991464547107979
 
 TrueLandmarks = Mapping[int, tuple[float, float]] | np.ndarray | None
 
+#: RGB colours of what the pictures show, shared by the movie (:mod:`slam_env.rendering`)
+#: and the plots (:mod:`slam_env.plotting`), so that one thing looks the same everywhere.
+PALETTE: dict[str, tuple[int, int, int]] = {
+    "floor": (250, 250, 246),
+    "wall": (45, 45, 45),
+    "obstacle": (128, 128, 128),
+    "obstacle_edge": (70, 70, 70),
+    "landmark": (165, 165, 165),  # a true landmark never detected (not in the map)
+    "landmark_seen": (235, 150, 20),  # a true landmark detected at least once
+    "landmark_edge": (40, 40, 40),
+    "truth": (40, 110, 220),  # the true robot and its path
+    "truth_edge": (15, 40, 90),
+    "estimate": (190, 30, 160),  # the estimated pose, its path and its 95% ellipse
+    "belief_landmark": (120, 40, 200),  # landmark estimates and their 95% ellipses
+    "truth_link": (150, 110, 190),  # from a landmark estimate to the truth
+    "detection": (30, 170, 60),  # detections (rays in the movie, points in the map)
+    "visible": (255, 215, 70),  # the sensor's visible region (drawn translucent)
+    "visible_edge": (205, 165, 30),
+    "label": (25, 25, 25),
+}
+
+#: Opacity (0–1) of the fill inside a 95% ellipse, in the movie and the plots.
+ELLIPSE_FILL_ALPHA = 0.22
+
+#: The legend's words for each element, the same in the movie and the plots.
+LEGEND_LABELS: dict[str, str] = {
+    "truth": "true trajectory",
+    "estimate": "estimated trajectory",
+    "estimated_pose": "estimated pose (95%)",
+    "landmark": "landmarks (grey: unseen)",
+    "belief_landmark": "landmark estimates (95%)",
+    "detection": "detections",
+    "visible": "visible region",
+}
+
 
 @dataclass
 class BeliefOverlay:
@@ -29,6 +64,10 @@ class BeliefOverlay:
         true_landmarks: the ground truth, to draw a thin line from each estimate to it:
             a mapping ``{id: (x, y)}``, or an (n, 2) array whose row i is the truth of
             ``landmark_ids[i]``, or ``None`` to use the drawn layout's positions.
+        trail: (T, 2) past estimated positions, m, oldest first; ``None``: not drawn.
+        figures: live figures of the belief to show beside the map, by name
+            (``"entropy"`` nats, ``"map_rmse"`` m, ``"pose_nees"``; others are shown
+            as they are); ``None``: none.
     """
 
     pose: np.ndarray
@@ -37,6 +76,8 @@ class BeliefOverlay:
     landmark_means: np.ndarray
     landmark_covs: np.ndarray
     true_landmarks: TrueLandmarks = None
+    trail: np.ndarray | None = None
+    figures: Mapping[str, float] | None = None
 
     @classmethod
     def from_state(

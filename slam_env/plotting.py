@@ -6,6 +6,7 @@ on an Agg canvas (headless), returns it, and writes a PNG when given a ``path``.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -14,30 +15,37 @@ import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 from matplotlib.patches import Polygon, Rectangle
+from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
 
 from slam_env.layouts import Layout
-from slam_env.overlay import BeliefOverlay, ellipse_points
+from slam_env.metrics import averaged_nees, nees_bands
+from slam_env.overlay import (
+    ELLIPSE_FILL_ALPHA,
+    LEGEND_LABELS,
+    PALETTE,
+    BeliefOverlay,
+    ellipse_points,
+)
 
 __all__ = [
     "draw_belief",
     "draw_world",
     "mean_and_band",
+    "plot_consistency",
     "plot_episode",
     "plot_metrics_over_time",
     "plot_trajectories_grid",
 ]
 
-_COLORS = {
-    "floor": "#fafaf6",
-    "wall": "#2d2d2d",
-    "obstacle": "#808080",
-    "landmark": "#eb9614",
-    "truth": "#1f5fd0",
-    "estimate": "#be1ea0",
-    "belief_landmark": "#7828c8",
-    "truth_link": "#9b7dc0",
-    "detection": "#1eaa3c",
-}
+
+def _hex(rgb: tuple[int, int, int]) -> str:
+    return "#{:02x}{:02x}{:02x}".format(*rgb)
+
+
+#: The shared palette (:data:`slam_env.overlay.PALETTE`) as matplotlib colours.
+_COLORS = {name: _hex(rgb) for name, rgb in PALETTE.items()}
+_ELLIPSE_EDGE_WIDTH = 1.6  # pt: a 95% ellipse shows even when it is small
+_ROBOT_MARKER_PT = 9.0
 
 
 def _new_figure(figsize: tuple[float, float]) -> Figure:
@@ -67,8 +75,11 @@ def _points(data: Any) -> np.ndarray:
     return arr[np.all(np.isfinite(arr), axis=1)]
 
 
-def draw_world(ax: Any, layout: Layout, *, label_landmarks: bool = True) -> None:
-    """Draw the arena, inner walls, obstacles and landmarks (with IDs) on ``ax``."""
+def draw_world(
+    ax: Any, layout: Layout, *, label_landmarks: bool = True, seen_ids: Any = None
+) -> None:
+    """Draw the arena, inner walls, obstacles and landmarks (with IDs) on ``ax``; with
+    ``seen_ids``, the landmarks not among them are grey (never seen), as in the movie."""
     ax.add_patch(
         Rectangle(
             (0.0, 0.0),
@@ -83,22 +94,32 @@ def draw_world(ax: Any, layout: Layout, *, label_landmarks: bool = True) -> None
     for poly in layout.obstacles:
         pts = np.asarray(poly, dtype=np.float64).reshape(-1, 2)
         ax.add_patch(
-            Polygon(pts, closed=True, facecolor=_COLORS["obstacle"], edgecolor="#464646", zorder=1)
+            Polygon(
+                pts,
+                closed=True,
+                facecolor=_COLORS["obstacle"],
+                edgecolor=_COLORS["obstacle_edge"],
+                zorder=1,
+            )
         )
     for x0, y0, x1, y1 in layout.walls:
         ax.plot([x0, x1], [y0, y1], color=_COLORS["wall"], linewidth=2.5, solid_capstyle="round")
     lm = layout.landmark_array()
     if lm.shape[0]:
+        seen = np.ones(lm.shape[0], dtype=bool)
+        if seen_ids is not None:
+            seen = np.isin(layout.id_array(), np.asarray(seen_ids, dtype=np.int64).reshape(-1))
+        colors = np.where(seen, _COLORS["landmark_seen"], _COLORS["landmark"])
         ax.scatter(
             lm[:, 0],
             lm[:, 1],
             s=36,
             marker="o",
-            facecolor=_COLORS["landmark"],
-            edgecolor="black",
+            c=list(colors),
+            edgecolor=_COLORS["landmark_edge"],
             linewidths=0.6,
             zorder=3,
-            label="landmarks",
+            label=LEGEND_LABELS["landmark"],
         )
         if label_landmarks:
             for i, (x, y) in zip(layout.landmark_ids, lm, strict=True):
@@ -144,15 +165,7 @@ def draw_belief(ax: Any, belief: BeliefOverlay, layout: Layout | None = None) ->
             )
         if np.all(np.isfinite(covs[k])):
             e = ellipse_points(m, covs[k], 0.95, n=64)
-            ax.fill(
-                e[:, 0],
-                e[:, 1],
-                facecolor=_COLORS["belief_landmark"],
-                alpha=0.15,
-                edgecolor=_COLORS["belief_landmark"],
-                linewidth=0.9,
-                zorder=5,
-            )
+            _fill_ellipse(ax, e, _COLORS["belief_landmark"], zorder=5)
     if n:
         ok = np.all(np.isfinite(means[:n]), axis=1)
         ax.scatter(
@@ -162,53 +175,80 @@ def draw_belief(ax: Any, belief: BeliefOverlay, layout: Layout | None = None) ->
             s=30,
             color=_COLORS["belief_landmark"],
             zorder=6,
-            label="landmark estimates (95%)",
+            label=LEGEND_LABELS["belief_landmark"],
         )
     pose = np.asarray(belief.pose, dtype=np.float64).reshape(3)
     pcov = np.asarray(belief.pose_cov, dtype=np.float64).reshape(3, 3)[:2, :2]
     if np.all(np.isfinite(pose)):
         if np.all(np.isfinite(pcov)):
             e = ellipse_points(pose[:2], pcov, 0.95, n=64)
-            ax.fill(
-                e[:, 0],
-                e[:, 1],
-                facecolor=_COLORS["estimate"],
-                alpha=0.15,
-                edgecolor=_COLORS["estimate"],
-                linewidth=1.0,
-                zorder=6,
-            )
-        ax.plot(
-            pose[0],
-            pose[1],
-            marker="D",
-            markersize=5,
-            color=_COLORS["estimate"],
-            linestyle="none",
-            zorder=7,
-            label="estimated pose (95%)",
+            _fill_ellipse(ax, e, _COLORS["estimate"], zorder=6)
+        _robot_marker(ax, pose, "estimate", label=LEGEND_LABELS["estimated_pose"])
+
+
+def _fill_ellipse(ax: Any, points: np.ndarray, color: str, zorder: int) -> None:
+    """A 95% ellipse as in the movie: a translucent fill inside an opaque edge."""
+    ax.fill(
+        points[:, 0],
+        points[:, 1],
+        facecolor=color,
+        alpha=ELLIPSE_FILL_ALPHA,
+        edgecolor="none",
+        zorder=zorder,
+    )
+    closed = np.vstack([points, points[:1]])
+    ax.plot(closed[:, 0], closed[:, 1], color=color, linewidth=_ELLIPSE_EDGE_WIDTH, zorder=zorder)
+
+
+def _robot_marker(ax: Any, pose: np.ndarray, kind: str, label: str | None = None) -> None:
+    """A robot as in the movie: the true one a blue disc, the estimated one a ring, each
+    with a heading tick when the pose has a heading."""
+    x, y = float(pose[0]), float(pose[1])
+    color = _COLORS[kind]
+    truth = kind == "truth"
+    ax.plot(
+        x,
+        y,
+        marker="o",
+        markersize=_ROBOT_MARKER_PT,
+        linestyle="none",
+        markerfacecolor=color if truth else "none",
+        markeredgecolor=_COLORS["truth_edge"] if truth else color,
+        markeredgewidth=1.6,
+        zorder=8 if truth else 9,
+        label=label,
+    )
+    if pose.size >= 3 and math.isfinite(float(pose[2])):
+        # The tick is drawn in points, so that it has the marker's size at any zoom.
+        angle = float(pose[2])
+        tick = _ROBOT_MARKER_PT * (0.5 if truth else 0.9)
+        ax.annotate(
+            "",
+            xy=(x, y),
+            xytext=(tick * math.cos(angle), tick * math.sin(angle)),
+            textcoords="offset points",
+            arrowprops={"arrowstyle": "-", "color": "black" if truth else color, "lw": 1.6},
+            zorder=9,
         )
 
 
-def _plot_path(ax: Any, traj: Any, color: str, label: str, style: str) -> None:
+def _plot_path(ax: Any, traj: Any, kind: str, style: str, *, end_marker: bool = True) -> None:
+    """A trajectory ((T, 2) or (T, 3)) in the colour of ``kind`` with a dot at its start
+    and, when ``end_marker``, the robot's symbol at its end."""
     arr = np.asarray(traj, dtype=np.float64)
     if arr.size == 0:
         return
     arr = arr.reshape(arr.shape[0], -1)
     if arr.shape[1] < 2:
         raise ValueError(f"a trajectory needs (T, 2) or (T, 3) rows, got shape {arr.shape}")
-    ax.plot(arr[:, 0], arr[:, 1], style, color=color, linewidth=1.4, label=label, zorder=4)
-    ax.plot(arr[0, 0], arr[0, 1], "o", color=color, markersize=5, zorder=4)
+    color = _COLORS[kind]
+    ax.plot(
+        arr[:, 0], arr[:, 1], style, color=color, linewidth=1.4, label=LEGEND_LABELS[kind], zorder=4
+    )
+    ax.plot(arr[0, 0], arr[0, 1], "o", color=color, markersize=4, zorder=4)
     end = arr[-1]
-    if arr.shape[1] >= 3 and np.all(np.isfinite(end[:3])):
-        ax.plot(
-            end[0],
-            end[1],
-            marker=(3, 0, np.degrees(end[2]) - 90.0),
-            markersize=9,
-            color=color,
-            zorder=4,
-        )
+    if end_marker and np.all(np.isfinite(end)):
+        _robot_marker(ax, end, kind)
 
 
 def plot_episode(
@@ -221,6 +261,7 @@ def plot_episode(
     path: str | Path | None = None,
     ax: Any = None,
     *,
+    legend: bool = True,
     dpi: int = 120,
 ) -> Figure:
     """One episode on its map.
@@ -231,10 +272,12 @@ def plot_episode(
         detections_world: world-frame detection points: an (M, 2) array or a list of
             per-step (k, 2) arrays; optional.
         estimated_trajectory: (T, 3) estimated poses, drawn dashed; optional.
-        belief: the final belief, drawn with 95% ellipses; optional.
+        belief: the final belief, drawn with 95% ellipses; optional. Landmarks it
+            lacks are drawn grey (never seen).
         title: the axes title.
         path: where to write a PNG; None writes nothing.
         ax: draw into this axes instead of a new figure.
+        legend: add the figure's legend (below the map).
         dpi: resolution of the PNG.
 
     Returns:
@@ -246,7 +289,7 @@ def plot_episode(
         ax = fig.add_subplot()
     else:
         fig = ax.figure
-    draw_world(ax, layout)
+    draw_world(ax, layout, seen_ids=None if belief is None else belief.landmark_ids)
     pts = _points(detections_world)
     if pts.shape[0]:
         ax.scatter(
@@ -257,21 +300,33 @@ def plot_episode(
             alpha=0.5,
             linewidths=0,
             zorder=2,
-            label="detections",
+            label=LEGEND_LABELS["detection"],
         )
-    _plot_path(ax, trajectory, _COLORS["truth"], "true trajectory", "-")
+    _plot_path(ax, trajectory, "truth", "-")
     if estimated_trajectory is not None:
-        _plot_path(ax, estimated_trajectory, _COLORS["estimate"], "estimated trajectory", "--")
+        # The belief, when given, draws the estimated pose with its ellipse.
+        _plot_path(ax, estimated_trajectory, "estimate", "--", end_marker=belief is None)
     if belief is not None:
         draw_belief(ax, belief, layout)
     if title:
         ax.set_title(title, fontsize=10)
-    # Below the map, so that it never hides landmarks in a corner.
-    ax.figure.legend(
-        *ax.get_legend_handles_labels(), loc="outside lower center", ncol=3, fontsize=7
-    )
+    if legend:
+        _map_legend(fig, [ax])
     _save(fig, path, dpi)
     return fig
+
+
+def _map_legend(fig: Figure, axes: Sequence[Any]) -> None:
+    """One legend for the maps on ``axes`` (each label once), below them, so that it
+    never hides landmarks in a corner."""
+    entries: dict[str, Any] = {}
+    for ax in axes:
+        for handle, label in zip(*ax.get_legend_handles_labels(), strict=True):
+            entries.setdefault(label, handle)
+    if entries:
+        fig.legend(
+            list(entries.values()), list(entries), loc="outside lower center", ncol=3, fontsize=8
+        )
 
 
 def _episodes(values: Any) -> list[np.ndarray]:
@@ -322,7 +377,7 @@ def plot_metrics_over_time(
     *,
     title: str | None = None,
     band: str = "std",
-    xlabel: str = "step",
+    xlabel: str = "time [steps]",
     dpi: int = 120,
 ) -> Figure:
     """Metrics over time, one subplot per metric, one line per agent: the mean across
@@ -365,6 +420,82 @@ def plot_metrics_over_time(
     return fig
 
 
+def plot_consistency(
+    series: Mapping[str, Mapping[str, Any]],
+    path: str | Path | None = None,
+    *,
+    dof: int = 3,
+    confidence: float = 0.95,
+    title: str | None = None,
+    dpi: int = 120,
+) -> Figure:
+    """Filter consistency over time, one line per agent: above, the pose NEES averaged
+    over the episodes (log scale) inside its two-sided ``confidence`` χ² band for that
+    many episodes (:func:`slam_env.metrics.nees_band`; ``dof`` 3 for x, y, θ), with the
+    expected value ``dof``; below, the map RMSE (mean ± std over the episodes).
+
+    Args:
+        series: ``{agent_name: {"pose_nees": episodes, "map_rmse": episodes}}``, each a
+            list of per-episode (T_e,) arrays (step 0: the reset, left out of the NEES
+            panel since its pose is exact) or an (E, T) array.
+        path: where to write a PNG; None writes nothing.
+
+    The band is shaded once when every agent averages the same number of episodes at
+    every step, and drawn as dotted lines in each agent's colour otherwise.
+    """
+    if not series:
+        raise ValueError("series is empty: nothing to plot")
+    fig = _new_figure((7.0, 5.6))
+    nees_ax, rmse_ax = fig.subplots(2, 1, sharex=True)
+    bands = []
+    for j, (agent, per_metric) in enumerate(series.items()):
+        color = f"C{j % 10}"
+        mean, runs = averaged_nees(_episodes(per_metric["pose_nees"]))
+        t = np.arange(1, mean.size)
+        nees_ax.plot(t, mean[1:], color=color, linewidth=1.3, label=agent)
+        bands.append((color, runs[1:], nees_bands(dof, runs[1:], confidence)))
+        rmse, half = mean_and_band(_episodes(per_metric["map_rmse"]), "std")
+        t = np.arange(rmse.size)
+        rmse_ax.plot(t, rmse, color=color, linewidth=1.3, label=agent)
+        rmse_ax.fill_between(t, rmse - half, rmse + half, color=color, alpha=0.2, linewidth=0)
+    share = f"{round(100 * confidence)}%"
+    first_runs = bands[0][1]
+    if all(np.array_equal(runs, first_runs) for _, runs, _ in bands):
+        lower, upper = bands[0][2]
+        n = int(first_runs.max(initial=0))
+        nees_ax.fill_between(
+            np.arange(1, lower.size + 1),
+            lower,
+            upper,
+            color="0.6",
+            alpha=0.3,
+            linewidth=0,
+            label=f"{share} χ² band for {n} episode{'s' if n != 1 else ''}",
+        )
+    else:
+        for color, _, (lower, upper) in bands:
+            t = np.arange(1, lower.size + 1)
+            nees_ax.plot(t, lower, ":", color=color, linewidth=1.0)
+            nees_ax.plot(t, upper, ":", color=color, linewidth=1.0)
+        nees_ax.plot([], [], ":", color="0.4", label=f"{share} χ² band (per agent's episodes)")
+    nees_ax.axhline(dof, color="black", linestyle="--", linewidth=0.8, label=f"expected ({dof})")
+    nees_ax.set_yscale("log")
+    nees_ax.yaxis.set_major_locator(LogLocator(base=10.0, subs=(1.0, 2.0, 5.0)))
+    nees_ax.yaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
+    nees_ax.yaxis.set_minor_formatter(NullFormatter())
+    nees_ax.set_ylabel("mean pose NEES [–]")
+    rmse_ax.set_ylabel("map RMSE [m] (mean ± std)")
+    rmse_ax.set_xlabel("time [steps]")
+    for ax in (nees_ax, rmse_ax):
+        ax.grid(True, alpha=0.3)
+    # Below the panels, so that it hides no data.
+    fig.legend(*nees_ax.get_legend_handles_labels(), loc="outside lower center", ncol=4, fontsize=8)
+    if title:
+        fig.suptitle(title)
+    _save(fig, path, dpi)
+    return fig
+
+
 def plot_trajectories_grid(
     per_agent: Mapping[str, Sequence[Any]],
     path: str | Path | None = None,
@@ -396,7 +527,10 @@ def plot_trajectories_grid(
             )
         layout, traj, belief = item[0], item[1], item[2]
         est = item[3] if len(item) == 4 else None
-        plot_episode(layout, traj, estimated_trajectory=est, belief=belief, title=name, ax=ax)
+        plot_episode(
+            layout, traj, estimated_trajectory=est, belief=belief, title=name, ax=ax, legend=False
+        )
+    _map_legend(fig, axes[:n])
     for ax in axes[n:]:
         ax.set_axis_off()
     if title:

@@ -55,6 +55,7 @@ class CoreEnv(gym.Env):
         self._started = False
         self._renderer = None
         self._trail: list[tuple[float, float]] = []
+        self._steps = 0  # since the reset, for the picture
 
     # ------------------------------------------------------------------ API
     def reset(
@@ -65,11 +66,12 @@ class CoreEnv(gym.Env):
         core = self._core
         layout = core.reset(0, self.np_random)
         self._started = True
-        pose = core.worlds.poses[0]
-        self._trail = [(float(pose[0]), float(pose[1]))]
+        self._trail = []
+        self._steps = 0
+        obs, info = core.observation(0), core.info(0)
+        self._remember(info)
         if self._renderer is not None:
             self._renderer.set_layout(layout)
-        obs, info = core.observation(0), core.info(0)
         if self.render_mode == "human":
             self.render()
         return obs, info
@@ -81,10 +83,9 @@ class CoreEnv(gym.Env):
         core = self._core
         core.rngs[0] = self.np_random  # whoever set env.np_random since the reset
         core.step([speed_frac * self._max_speed], [turn_frac * self._max_turn_rate], self._active)
-        if self.render_mode is not None:
-            pose = core.worlds.poses[0]
-            self._trail.append((float(pose[0]), float(pose[1])))
+        self._steps += 1
         obs, info = core.observation(0), core.info(0)
+        self._remember(info)
         reward = float(core.rewards[0])
         terminated = bool(core.terminated[0])
         if self.render_mode == "human":
@@ -143,13 +144,26 @@ class CoreEnv(gym.Env):
         """Rows of the detections in the raw observation."""
         return self._core.max_detections
 
+    def _remember(self, info: dict[str, Any]) -> None:
+        """Keep what the picture draws of the path (only when rendering)."""
+        if self.render_mode is not None:
+            pose = self._core.worlds.poses[0]
+            self._trail.append((float(pose[0]), float(pose[1])))
+
     def _overlay(self) -> Any:
         """The belief to draw over the world, if any."""
         return None
 
     def render_frame(self):
-        """The plain-data :class:`slam_env.rendering.Frame` of the current state."""
-        return self._core.frame(0, self._trail, self._overlay())
+        """The plain-data :class:`slam_env.rendering.Frame` of the current state, with
+        the sensor's visible region traced in the world and the step number."""
+        from slam_env.visibility import visible_region
+
+        frame = self._core.frame(0, self._trail, self._overlay())
+        sensor = self.config.sensor
+        frame.visible_region = visible_region(self.world, frame.pose, sensor.max_range, sensor.fov)
+        frame.step = self._steps
+        return frame
 
     def _get_renderer(self):
         if self._renderer is None:

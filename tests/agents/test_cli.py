@@ -74,7 +74,10 @@ def test_cli_demo_writes_gif_map_and_metrics(tmp_path, capsys):
     metrics = json.loads((tmp_path / "demo_metrics.json").read_text())
     assert metrics["agent"] == "random" and metrics["seed"] == 2
     assert metrics["metrics"]["steps"] == 12
-    assert "mapped_share" in capsys.readouterr().out
+    assert 0.0 <= metrics["metrics"]["nees_in_band"] <= 1.0
+    assert (tmp_path / "demo_consistency.png").read_bytes()[:4] == b"\x89PNG"
+    printed = capsys.readouterr().out
+    assert "mapped_share" in printed and "nees_in_band" in printed
 
 
 def test_cli_demo_subsamples_long_episodes_and_no_gif(tmp_path):

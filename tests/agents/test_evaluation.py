@@ -25,6 +25,7 @@ from agents.evaluation import (
     t_quantile,
 )
 from agents.registry import make_env
+from slam_env.metrics import averaged_nees, nees_band
 
 SMALL_WORLD = {"n_landmarks": 6, "width": 8.0, "height": 8.0, "n_obstacles": 1}
 HEURISTICS = [
@@ -223,6 +224,22 @@ def test_evaluate_summary_is_the_mean_of_the_episodes(tiny_eval):
         eps = [r for r in result.episodes if r["agent"] == row["agent"]]
         for name in ("mapped_share", "path_length", "pose_rmse"):
             assert row[f"{name}_mean"] == pytest.approx(np.mean([r[name] for r in eps]))
+
+
+def test_evaluate_summary_has_the_share_of_steps_in_the_nees_band(tiny_eval):
+    out, result = tiny_eval
+    for row in result.summary:
+        nees = [r.pose_nees for r in result.records[row["agent"]]]
+        mean, runs = averaged_nees(nees)
+        lower, upper = nees_band(3, 2)  # both episodes reach every step
+        assert np.all(runs[1:] <= 2)
+        ok = np.isfinite(mean[1:])
+        inside = (mean[1:][ok] >= lower) & (mean[1:][ok] <= upper)
+        assert row["nees_in_band"] == pytest.approx(inside.mean())
+    _, rows = _read_csv(out / "summary.csv")
+    assert [float(r["nees_in_band"]) for r in rows] == [r["nees_in_band"] for r in result.summary]
+    data = (out / "consistency.png").read_bytes()
+    assert data[:8] == b"\x89PNG\r\n\x1a\n" and len(data) > 10_000
 
 
 def test_evaluate_is_deterministic(tiny_eval, tmp_path):

@@ -91,6 +91,7 @@ def test_load_config_applies_overrides(tmp_path):
         ({"ppo": {"activation": "gelu"}}, "'ppo.activation'"),
         ({"ppo": {"log_std_init": float("nan")}}, "'ppo.log_std_init'"),
         ({"start_method": "thread"}, "'start_method'"),
+        ({"vectorization": "async"}, "'vectorization' must be one of .'native', 'subproc'"),
         ({"ppo": [1, 2]}, "'ppo' must be a mapping"),
         ([1, 2], "must be a mapping"),
     ],
@@ -127,6 +128,14 @@ def test_train_writes_model_config_checkpoints_evaluations_and_logs(trained):
     assert any((out / "tb").rglob("events.out.tfevents.*"))
     summary = json.loads((out / "training_summary.json").read_text())
     assert summary["timesteps"] == 128 and summary["env_steps_per_s"] > 0
+    assert summary["vectorization"] == "native"  # the default
+    # Where the wall time went: env stepping, gradient updates and the rest add up.
+    shares = [summary[f"{k}_share"] for k in ("env_step", "gradient_updates", "other")]
+    assert all(0.0 < x < 1.0 for x in shares) and sum(shares) == pytest.approx(1.0, abs=1e-3)
+    assert summary["env_step_s"] + summary["gradient_updates_s"] <= summary["wall_time_s"]
+    assert summary["env_step_share"] == pytest.approx(
+        summary["env_step_s"] / summary["wall_time_s"], abs=1e-3
+    )
     # The action σ started at e⁻¹ (log_std_init) and two small updates barely moved it.
     sigma = load_ppo_agent(path).model.policy.log_std.exp().detach().numpy()
     assert np.all(np.abs(sigma - math.exp(-1.0)) < 0.05)
@@ -234,16 +243,27 @@ def test_saved_policy_drops_the_optimiser_state_and_acts_the_same(tmp_path):
     env.close()
 
 
-def test_training_is_reproducible_with_parallel_envs(tmp_path):
-    # The shipped policy's claim: the same config and seed give the same policy, also
-    # with SubprocVecEnv workers.
-    params = []
-    for run in ("a", "b"):
-        cfg = tiny_config(tmp_path / run, n_envs=2, eval_freq=0, checkpoint_freq=0)
-        model = load_ppo_agent(train(cfg)).model
-        params.append([t.detach().numpy() for t in model.policy.parameters()])
-    for first, second in zip(*params, strict=True):
-        np.testing.assert_array_equal(first, second)
+def trained_parameters(out_dir, **overrides) -> list[np.ndarray]:
+    cfg = tiny_config(out_dir, n_envs=2, eval_freq=0, checkpoint_freq=0, **overrides)
+    model = load_ppo_agent(train(cfg)).model
+    return [t.detach().numpy() for t in model.policy.parameters()]
+
+
+def test_training_is_reproducible_and_the_same_whichever_the_vectorization(tmp_path):
+    # The shipped policy's claim: the same config and seed give the same policy. The
+    # native vector env's sub-env i replays the single env seeded seed + i, so the
+    # in-process single envs (dummy) train the very same policy.
+    native = trained_parameters(tmp_path / "a")
+    for run, mode in (("b", "native"), ("c", "dummy")):
+        other = trained_parameters(tmp_path / run, vectorization=mode)
+        for first, second in zip(native, other, strict=True):
+            np.testing.assert_array_equal(first, second)
+
+
+def test_training_is_reproducible_with_worker_processes(tmp_path):
+    first, second = (trained_parameters(tmp_path / r, vectorization="subproc") for r in "ab")
+    for a, b in zip(first, second, strict=True):
+        np.testing.assert_array_equal(a, b)
 
 
 def test_the_shipped_policy_is_small_and_fits_the_default_env():
@@ -255,4 +275,30 @@ def test_the_shipped_policy_is_small_and_fits_the_default_env():
     obs, _ = env.reset(seed=0)
     action, _ = agent.predict(obs)
     assert env.action_space.contains(action)
+    env.close()
+
+
+def test_ppo_episodes_side_by_side_equal_the_single_env_episodes(trained):
+    # evaluate runs a policy's episodes on the native vector env; the same seeds give
+    # the very same episodes as the single env, across batches (5 seeds, 2 at a time).
+    from agents.base import RandomAgent
+    from agents.evaluation import run_episode
+    from agents.vector_episodes import acts_on_batches, run_episodes_batched
+
+    _, path = trained
+    env = make_env(SMALL_WORLD, 40)
+    agent = load_ppo_agent(path, env)
+    assert acts_on_batches(agent) and not acts_on_batches(RandomAgent(env, seed=0))
+    seeds = [7, 8, 9, 10, 11]
+    batched = run_episodes_batched(agent, seeds, SMALL_WORLD, 40, batch=2)
+    for seed, side_by_side in zip(seeds, batched, strict=True):
+        alone = run_episode(env, agent, seed)
+        assert side_by_side.seed == seed and side_by_side.world == alone.world
+        np.testing.assert_equal(side_by_side.metrics(), alone.metrics())  # NaN equals NaN
+        for name in ("true_poses", "est_poses", "entropy", "pose_nees", "rewards"):
+            np.testing.assert_array_equal(getattr(side_by_side, name), getattr(alone, name))
+        np.testing.assert_array_equal(
+            side_by_side.belief.landmark_means, alone.belief.landmark_means
+        )
+        assert side_by_side.layout == alone.layout
     env.close()
