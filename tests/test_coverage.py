@@ -149,3 +149,33 @@ def test_coverage_needs_a_filter_and_the_reward_needs_coverage():
         reward.reset(seed=0)
     with pytest.raises(TypeError, match="coverage must be a bool"):
         gym.make(ENV_ID, coverage="yes")
+
+
+@pytest.mark.parametrize(("max_range", "sweep_range"), [(1.0, 0.5), (0.4, 0.0), (5.0, 4.5)])
+def test_a_sensor_sweeps_its_range_less_one_cell(max_range, sweep_range):
+    """for_sensor counts a cell swept only within the range less one cell (never less
+    than the robot's own cell), with the sensor's FOV and rings at R and 2R."""
+    from slam_env.config import SensorConfig
+
+    sensor = SensorConfig(max_range=max_range, fov=2 * math.pi)
+    grid = CoverageGrid.for_sensor(8.0, 8.0, sensor)
+    grid.sweep(4.25, 4.25, 0.0)
+    cx, cy = cell_centres(grid)
+    assert np.array_equal(grid.swept, np.hypot(cx - 4.25, cy - 4.25) <= sweep_range)
+    twin = CoverageGrid(
+        8.0, 8.0, sweep_range, 2 * math.pi, ring_edges=(max_range, 2.0 * max_range)
+    )
+    twin.sweep(4.25, 4.25, 0.0)
+    np.testing.assert_array_equal(grid.features(4.25, 4.25, 0.0), twin.features(4.25, 4.25, 0.0))
+
+
+@pytest.mark.parametrize("observation", ["egocentric", "full"])
+def test_the_coverage_features_space_is_the_unit_interval(observation):
+    wrapper = CoverageWrapper(EKFSLAMWrapper(LandmarksEnv(), observation=observation))
+    n = 1 + wrapper.grid.n_features
+    space = wrapper.observation_space
+    if isinstance(space, gym.spaces.Dict):
+        low, high = space["coverage"].low, space["coverage"].high
+    else:
+        low, high = space.low[-n:], space.high[-n:]
+    assert low.shape == (n,) and np.all(low == 0.0) and np.all(high == 1.0)
