@@ -1,16 +1,18 @@
 """Instructions per env step, counted by valgrind's callgrind: repeatable figures on a
 shared machine, where wall-clock rates wander by tens of percent between runs.
 
-    .venv/bin/python benchmarks/bench_instructions.py [--steps 1000]
+    .venv/bin/python benchmarks/bench_instructions.py [--steps 250] [--warmup 100]
 
 Each env is stepped in a child process under ``valgrind --tool=callgrind`` twice, for
 0 and for ``--steps`` random steps after the same warm-up; the difference divided by
 ``--steps`` is the cost of a step, imports and set-up cancelling out. A native vector
-env of B sub-envs takes ``--steps`` vector steps too, so that each sub-env goes through
-as many episodes (and resets) as the single env; its figure is per env-step. The count
-is the same whatever else the machine is doing. It is not time: code that calls many
-small functions runs fewer instructions per second than tight compiled loops, so a
-ratio of instructions and the ratio of rates that ``bench_env.py`` measures differ.
+env of B sub-envs takes ``--steps`` vector steps, and its figure is per env-step. With
+the defaults the counted steps of the slam envs hold no episode end (their episodes
+last 500 steps), so these are the costs of a step alone; a reset costs a few ms, paid
+once per episode (``bench_env.py``'s rates include it). The count is the same whatever
+else the machine is doing. It is not time: code that calls many small functions runs
+fewer instructions per second than tight compiled loops, so a ratio of instructions
+and the ratio of rates that ``bench_env.py`` measures differ.
 """
 
 from __future__ import annotations
@@ -94,8 +96,8 @@ def count(env_id: str, options: dict, num_envs: int, steps: int, warmup: int) ->
 
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--steps", type=int, default=1000)
-    parser.add_argument("--warmup", type=int, default=200)
+    parser.add_argument("--steps", type=int, default=250)
+    parser.add_argument("--warmup", type=int, default=100)
     args = parser.parse_args(argv)
     if args.steps < 1 or args.warmup < 1:
         parser.error("--steps and --warmup must be at least 1")

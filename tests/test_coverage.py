@@ -162,9 +162,7 @@ def test_a_sensor_sweeps_its_range_less_one_cell(max_range, sweep_range):
     grid.sweep(4.25, 4.25, 0.0)
     cx, cy = cell_centres(grid)
     assert np.array_equal(grid.swept, np.hypot(cx - 4.25, cy - 4.25) <= sweep_range)
-    twin = CoverageGrid(
-        8.0, 8.0, sweep_range, 2 * math.pi, ring_edges=(max_range, 2.0 * max_range)
-    )
+    twin = CoverageGrid(8.0, 8.0, sweep_range, 2 * math.pi, ring_edges=(max_range, 2.0 * max_range))
     twin.sweep(4.25, 4.25, 0.0)
     np.testing.assert_array_equal(grid.features(4.25, 4.25, 0.0), twin.features(4.25, 4.25, 0.0))
 
