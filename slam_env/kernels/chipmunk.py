@@ -1,6 +1,7 @@
 """What Chipmunk (the C engine of pymunk 7.3) caches for a static shape, and the
 bounding-box tree of a space's static shapes, computed from plain shapes with
-Chipmunk's own arithmetic (plain Python, run when a world is built).
+Chipmunk's own arithmetic (plain Python for the shapes, a compiled kernel for the
+tree; run when a world is built).
 
 The compiled segment queries (:mod:`slam_env.kernels.raycast`) reproduce pymunk's bit
 for bit only on the same data: the same polygon hull and vertex order, the same unit
@@ -13,6 +14,10 @@ from __future__ import annotations
 
 import math
 import sys
+
+import numpy as np
+
+from slam_env.kernels import inline_kernel, kernel
 
 __all__ = ["Box", "bb_tree", "chipmunk_hull", "circle_box", "polygon_data", "segment_data"]
 
@@ -186,92 +191,116 @@ def _hull_reduce(
 # ----------------------------------------------------------------------------- tree
 
 
-def _merge(a: Box, b: Box) -> Box:
-    """cpBBMerge."""
-    return (_fmin(a[0], b[0]), _fmin(a[1], b[1]), _fmax(a[2], b[2]), _fmax(a[3], b[3]))
+@inline_kernel
+def _merged_area(a: np.ndarray, b: np.ndarray) -> float:
+    """cpBBMergedArea (cpfmin/cpfmax: ``a if a < b else b``, which keeps the sign of 0
+    that Chipmunk keeps)."""
+    right = a[2] if a[2] > b[2] else b[2]
+    left = a[0] if a[0] < b[0] else b[0]
+    top = a[3] if a[3] > b[3] else b[3]
+    bottom = a[1] if a[1] < b[1] else b[1]
+    return (right - left) * (top - bottom)
 
 
-def _area(a: Box) -> float:
-    """cpBBArea."""
-    return (a[2] - a[0]) * (a[3] - a[1])
+@inline_kernel
+def _merge_into(out: np.ndarray, a: np.ndarray, b: np.ndarray) -> None:
+    """out ← cpBBMerge(a, b) (``out`` may be ``a``)."""
+    left = a[0] if a[0] < b[0] else b[0]
+    bottom = a[1] if a[1] < b[1] else b[1]
+    right = a[2] if a[2] > b[2] else b[2]
+    top = a[3] if a[3] > b[3] else b[3]
+    out[0], out[1], out[2], out[3] = left, bottom, right, top
 
 
-def _merged_area(a: Box, b: Box) -> float:
-    """cpBBMergedArea."""
-    return (_fmax(a[2], b[2]) - _fmin(a[0], b[0])) * (_fmax(a[3], b[3]) - _fmin(a[1], b[1]))
+@kernel
+def _build_tree(boxes: np.ndarray, tree: np.ndarray, tree_boxes: np.ndarray) -> None:
+    """The tree of :func:`bb_tree` into ``tree`` (2n − 1, 4) int64 and ``tree_boxes``
+    (2n − 1, 4) for ``boxes`` (n, 4), n ≥ 1.
+
+    SubtreeInsert, leaf after leaf in the boxes' order: from the root, descend to the
+    child whose box grows least (by area, then by centre distance), pair the leaf with
+    the leaf found there under a new node, and widen the boxes above it. Then the
+    nodes are numbered depth first, child a before child b."""
+    n = boxes.shape[0]
+    m = 2 * n - 1
+    # Nodes in creation order: children, shape (−1 inner), parent, box.
+    child_a = np.full(m, -1, np.int64)
+    child_b = np.full(m, -1, np.int64)
+    shape = np.full(m, -1, np.int64)
+    parent = np.full(m, -1, np.int64)
+    box = np.empty((m, 4))
+    root = -1
+    count = 0
+    for k in range(n):
+        leaf = count
+        count += 1
+        box[leaf] = boxes[k]
+        shape[leaf] = k
+        if root < 0:
+            root = leaf
+            continue
+        node = root
+        while shape[node] < 0:
+            a, b = child_a[node], child_b[node]
+            ba, bb, bl = box[a], box[b], box[leaf]
+            cost_a = (bb[2] - bb[0]) * (bb[3] - bb[1]) + _merged_area(ba, bl)
+            cost_b = (ba[2] - ba[0]) * (ba[3] - ba[1]) + _merged_area(bb, bl)
+            if cost_a == cost_b:  # cpBBProximity
+                cost_a = abs(ba[0] + ba[2] - bl[0] - bl[2]) + abs(ba[1] + ba[3] - bl[1] - bl[3])
+                cost_b = abs(bb[0] + bb[2] - bl[0] - bl[2]) + abs(bb[1] + bb[3] - bl[1] - bl[3])
+            node = b if cost_b < cost_a else a
+        above = parent[node]
+        pair = count
+        count += 1
+        _merge_into(box[pair], box[leaf], box[node])
+        child_a[pair], child_b[pair] = leaf, node
+        parent[leaf] = pair
+        parent[node] = pair
+        parent[pair] = above
+        if above < 0:
+            root = pair
+            continue
+        if child_a[above] == node:
+            child_a[above] = pair
+        else:
+            child_b[above] = pair
+        while above >= 0:
+            _merge_into(box[above], box[above], box[leaf])
+            above = parent[above]
+    # Depth first, child a before child b: a stack of (node, its parent's new index,
+    # which side of that parent it is).
+    stack = np.empty((m, 3), np.int64)
+    stack[0, 0], stack[0, 1], stack[0, 2] = root, -1, 0
+    top = 1
+    index = 0
+    while top > 0:
+        top -= 1
+        node, above, side = stack[top, 0], stack[top, 1], stack[top, 2]
+        if above >= 0:
+            tree[above, side] = index
+        tree[index, 0] = -1
+        tree[index, 1] = -1
+        tree[index, 2] = shape[node]
+        tree[index, 3] = above
+        tree_boxes[index] = box[node]
+        if shape[node] < 0:
+            stack[top, 0], stack[top, 1], stack[top, 2] = child_b[node], index, 1
+            stack[top + 1, 0], stack[top + 1, 1], stack[top + 1, 2] = child_a[node], index, 0
+            top += 2
+        index += 1
 
 
-def _proximity(a: Box, b: Box) -> float:
-    """cpBBProximity."""
-    return abs(a[0] + a[2] - b[0] - b[2]) + abs(a[1] + a[3] - b[1] - b[3])
-
-
-class _Node:
-    __slots__ = ("a", "b", "box", "parent", "shape")
-
-    def __init__(self, box: Box, shape: int = -1) -> None:
-        self.box, self.shape = box, shape
-        self.a: _Node | None = None
-        self.b: _Node | None = None
-        self.parent: _Node | None = None
-
-
-def _insert(root: _Node | None, leaf: _Node) -> _Node:
-    """SubtreeInsert: from the root, descend to the child whose box grows least (by
-    area, then by centre distance), pair the leaf with the leaf found there under a
-    new node, and widen the boxes above it. Returns the root."""
-    if root is None:
-        return leaf
-    node = root
-    while node.shape < 0:
-        a, b = node.a, node.b
-        assert a is not None and b is not None
-        cost_a = _area(b.box) + _merged_area(a.box, leaf.box)
-        cost_b = _area(a.box) + _merged_area(b.box, leaf.box)
-        if cost_a == cost_b:
-            cost_a = _proximity(a.box, leaf.box)
-            cost_b = _proximity(b.box, leaf.box)
-        node = b if cost_b < cost_a else a
-    parent = node.parent
-    pair = _Node(_merge(leaf.box, node.box))
-    pair.a, pair.b = leaf, node
-    leaf.parent = node.parent = pair
-    pair.parent = parent
-    if parent is None:
-        return pair
-    if parent.a is node:
-        parent.a = pair
-    else:
-        parent.b = pair
-    above: _Node | None = parent
-    while above is not None:
-        above.box = _merge(above.box, leaf.box)
-        above = above.parent
-    return root
-
-
-def bb_tree(boxes: list[Box]) -> tuple[list[tuple[int, int, int, int]], list[Box]]:
+def bb_tree(boxes: list[Box]) -> tuple[np.ndarray, np.ndarray]:
     """The bounding-box tree that Chipmunk's static index builds when shapes with
     these boxes are added to a space in this order (cpBBTreeInsert, no re-indexing).
 
     Returns its 2n − 1 nodes (none for no boxes) in depth-first order, the root first,
-    each as ``(child_a, child_b, shape, parent)``: an inner node's two children (node
-    indices) and shape −1, or a leaf's −1, −1 and its box's index; the parent's index
-    (−1 for the root). And each node's box."""
-    root: _Node | None = None
-    for k, box in enumerate(boxes):
-        root = _insert(root, _Node(box, shape=k))
-    nodes: list[list[int]] = []
-    node_boxes: list[Box] = []
-    todo: list[tuple[_Node, int, int]] = [] if root is None else [(root, -1, 0)]
-    while todo:  # depth first, child a before child b
-        node, parent, side = todo.pop()
-        index = len(nodes)
-        if parent >= 0:
-            nodes[parent][side] = index
-        nodes.append([-1, -1, node.shape, parent])
-        node_boxes.append(node.box)
-        if node.shape < 0:
-            assert node.a is not None and node.b is not None
-            todo += [(node.b, index, 1), (node.a, index, 0)]
-    return [(a, b, s, p) for a, b, s, p in nodes], node_boxes
+    as rows ``(child_a, child_b, shape, parent)`` ((2n − 1, 4) int64): an inner node's
+    two children (node indices) and shape −1, or a leaf's −1, −1 and its box's index;
+    the parent's index (−1 for the root). And each node's box ((2n − 1, 4))."""
+    n = len(boxes)
+    tree = np.empty((max(2 * n - 1, 0), 4), dtype=np.int64)
+    tree_boxes = np.empty((tree.shape[0], 4))
+    if n:
+        _build_tree(np.array(boxes, dtype=np.float64).reshape(n, 4), tree, tree_boxes)
+    return tree, tree_boxes

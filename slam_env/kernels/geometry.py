@@ -200,7 +200,7 @@ def set_world(
         g.polygon_sizes[b, k] = n
     for i, row in enumerate(circles):
         g.circles[b, i] = row
-    if nodes:
+    if len(nodes):
         g.tree[b, : len(nodes)] = nodes
         g.tree_boxes[b, : len(nodes)] = node_boxes
     g.counts[b] = (len(segments), len(polygons), len(circles))
