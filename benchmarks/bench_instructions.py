@@ -75,13 +75,18 @@ for action in actions:
 """
 
 
-def count(env_id: str, options: dict, num_envs: int, steps: int, warmup: int) -> int:
-    """Instructions of a child process that makes the env and takes warmup + steps
-    (vector steps of ``num_envs`` sub-envs, or single-env steps if 0)."""
+def child_code(env_id: str, options: dict, num_envs: int, steps: int, warmup: int) -> str:
+    """The child's program: make the env and take warmup + steps (vector steps of
+    ``num_envs`` sub-envs, or single-env steps if 0)."""
     child = _VECTOR_CHILD if num_envs else _CHILD
-    code = child.format(
+    return child.format(
         env_id=env_id, options=options, num_envs=num_envs, steps=steps, warmup=warmup
     )
+
+
+def count(env_id: str, options: dict, num_envs: int, steps: int, warmup: int) -> int:
+    """Instructions of the child (:func:`child_code`) under callgrind."""
+    code = child_code(env_id, options, num_envs, steps, warmup)
     result = subprocess.run(
         [*CALLGRIND, sys.executable, "-c", code],
         capture_output=True,
@@ -104,6 +109,12 @@ def main(argv: list[str] | None = None) -> None:
     if shutil.which("valgrind") is None:
         sys.exit("valgrind is not installed (Debian: apt install valgrind)")
 
+    # Each env once without valgrind first, so that every kernel it runs is in numba's
+    # cache: two children compiling side by side would otherwise race to it, and the
+    # one that loads what the other wrote would count far fewer instructions.
+    for env_id, options, b in ENVS.values():
+        code = child_code(env_id, options, b, args.steps, args.warmup)
+        subprocess.run([sys.executable, "-c", code], check=True)
     # The counts do not depend on load, so the children run side by side.
     with ThreadPoolExecutor(max_workers=os.cpu_count()) as pool:
         runs = {}

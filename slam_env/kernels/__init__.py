@@ -43,11 +43,18 @@ import shutil
 import warnings
 from collections.abc import Callable, Iterator
 from pathlib import Path
-from typing import TypeVar
+from typing import Any, TypeVar
 
 import numba
 
-__all__ = ["KERNELS", "KernelCacheWarning", "cache_directory", "inline_kernel", "kernel"]
+__all__ = [
+    "KERNELS",
+    "KernelCacheWarning",
+    "cache_directory",
+    "inline_kernel",
+    "kernel",
+    "summing_kernel",
+]
 
 F = TypeVar("F", bound=Callable)
 
@@ -133,7 +140,16 @@ def inline_kernel(fn: F) -> F:
     return _compile(fn, inline="always")
 
 
-def _compile(fn: F, **options: str) -> F:
+def summing_kernel(fn: F) -> F:
+    """:func:`kernel` whose floating-point sums may be reassociated and contracted
+    (numba's ``fastmath={"reassoc", "contract"}``, nothing about NaN or infinities), so
+    that LLVM vectorises its inner products: for kernels whose time is one serial chain
+    of additions, like the Cholesky factorisation (2.3× faster at 43 × 43). The results
+    differ from a serial sum in the last bits, the same on every run of a machine."""
+    return _compile(fn, fastmath={"reassoc", "contract"})
+
+
+def _compile(fn: F, **options: Any) -> F:
     global _warned
     try:
         if _CACHE is None:

@@ -203,6 +203,18 @@ def _merged_area(a: np.ndarray, b: np.ndarray) -> float:
 
 
 @inline_kernel
+def _area(a: np.ndarray) -> float:
+    """cpBBArea."""
+    return (a[2] - a[0]) * (a[3] - a[1])
+
+
+@inline_kernel
+def _proximity(a: np.ndarray, b: np.ndarray) -> float:
+    """cpBBProximity: the distance between the boxes' centres, doubled, in the L1 norm."""
+    return abs(a[0] + a[2] - b[0] - b[2]) + abs(a[1] + a[3] - b[1] - b[3])
+
+
+@inline_kernel
 def _merge_into(out: np.ndarray, a: np.ndarray, b: np.ndarray) -> None:
     """out ← cpBBMerge(a, b) (``out`` may be ``a``)."""
     left = a[0] if a[0] < b[0] else b[0]
@@ -243,11 +255,10 @@ def _build_tree(boxes: np.ndarray, tree: np.ndarray, tree_boxes: np.ndarray) -> 
         while shape[node] < 0:
             a, b = child_a[node], child_b[node]
             ba, bb, bl = box[a], box[b], box[leaf]
-            cost_a = (bb[2] - bb[0]) * (bb[3] - bb[1]) + _merged_area(ba, bl)
-            cost_b = (ba[2] - ba[0]) * (ba[3] - ba[1]) + _merged_area(bb, bl)
-            if cost_a == cost_b:  # cpBBProximity
-                cost_a = abs(ba[0] + ba[2] - bl[0] - bl[2]) + abs(ba[1] + ba[3] - bl[1] - bl[3])
-                cost_b = abs(bb[0] + bb[2] - bl[0] - bl[2]) + abs(bb[1] + bb[3] - bl[1] - bl[3])
+            cost_a = _area(bb) + _merged_area(ba, bl)
+            cost_b = _area(ba) + _merged_area(bb, bl)
+            if cost_a == cost_b:
+                cost_a, cost_b = _proximity(ba, bl), _proximity(bb, bl)
             node = b if cost_b < cost_a else a
         above = parent[node]
         pair = count

@@ -12,10 +12,10 @@ import math
 
 import numpy as np
 
-from slam_env.kernels import kernel
+from slam_env.kernels import kernel, summing_kernel
 
 
-@kernel
+@summing_kernel
 def cholesky_in_place(A: np.ndarray, n: int) -> bool:
     """Overwrite the lower triangle of ``A[:n, :n]`` with its Cholesky factor L
     (A = L Lᵀ), reading only that lower triangle; the strict upper triangle is left as
