@@ -84,11 +84,19 @@ def child_code(env_id: str, options: dict, num_envs: int, steps: int, warmup: in
     )
 
 
+# numba compiles for the CPU it sees, and valgrind shows the child another CPU than
+# the machine's: without a fixed target, every child would find numba's cache keyed to
+# the other CPU and compile its kernels again, and two children running side by side
+# would race to write them. The counts are of kernels compiled for a generic x86-64.
+CHILD_ENV = {**os.environ, "NUMBA_CPU_NAME": "generic"}
+
+
 def count(env_id: str, options: dict, num_envs: int, steps: int, warmup: int) -> int:
     """Instructions of the child (:func:`child_code`) under callgrind."""
     code = child_code(env_id, options, num_envs, steps, warmup)
     result = subprocess.run(
         [*CALLGRIND, sys.executable, "-c", code],
+        env=CHILD_ENV,
         capture_output=True,
         text=True,
         check=True,
@@ -119,11 +127,10 @@ def main(argv: list[str] | None = None) -> None:
         sys.exit("valgrind is not installed (Debian: apt install valgrind)")
 
     # Each env once without valgrind first, so that every kernel it runs is in numba's
-    # cache: two children compiling side by side would otherwise race to it, and the
-    # one that loads what the other wrote would count far fewer instructions.
+    # cache (for the generic CPU of CHILD_ENV) before any child is counted.
     for env_id, options, b in envs.values():
         code = child_code(env_id, options, b, args.steps, args.warmup)
-        subprocess.run([sys.executable, "-c", code], check=True)
+        subprocess.run([sys.executable, "-c", code], check=True, env=CHILD_ENV)
     # The counts do not depend on load, so the children run side by side.
     with ThreadPoolExecutor(max_workers=os.cpu_count()) as pool:
         runs = {}
