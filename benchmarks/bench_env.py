@@ -31,58 +31,59 @@ VECTOR_IDS = {"Landmarks": "slam_env/Landmarks-v0", "ActiveSLAM": "slam_env/Acti
 
 
 class Timed:
-    """One single env with its pre-sampled actions, timed a round at a time."""
+    """One single env with its pre-sampled actions, timed a round at a time; its rate
+    is env-steps per second."""
+
+    num_envs = 1
 
     def __init__(self, env_id: str, steps: int, **kwargs: Any) -> None:
-        self.env = gym.make(env_id, **kwargs)
+        self.env = self._make(env_id, **kwargs)
         self.env.action_space.seed(0)
         self.actions = [self.env.action_space.sample() for _ in range(steps)]
         self.best = float("inf")
         self.rounds = 0
 
-    def run_round(self) -> None:
+    def _make(self, env_id: str, **kwargs: Any) -> Any:
+        return gym.make(env_id, **kwargs)
+
+    def _step_all(self) -> None:
+        """Every action once (an episode that ends is reset by the loop)."""
         env = self.env
-        env.reset(seed=self.rounds)
-        self.rounds += 1
-        start = time.perf_counter()
         for action in self.actions:
             _, _, terminated, truncated, _ = env.step(action)
             if terminated or truncated:
                 env.reset()
-        self.best = min(self.best, time.perf_counter() - start)
-
-    @property
-    def rate(self) -> float:
-        return len(self.actions) / self.best
-
-
-class TimedVector(Timed):
-    """A native vector env of ``num_envs`` sub-envs, stepped ``steps`` vector steps a
-    round (each sub-env through its resets, as the single envs go through theirs); its
-    rate is env-steps per second."""
-
-    def __init__(self, env_id: str, steps: int, num_envs: int, **kwargs: Any) -> None:
-        self.env = gym.make_vec(
-            env_id, num_envs=num_envs, vectorization_mode="vector_entry_point", **kwargs
-        )
-        self.env.action_space.seed(0)
-        self.actions = [self.env.action_space.sample() for _ in range(steps)]
-        self.num_envs = num_envs
-        self.best = float("inf")
-        self.rounds = 0
 
     def run_round(self) -> None:
-        env = self.env
-        env.reset(seed=self.rounds)
+        self.env.reset(seed=self.rounds)
         self.rounds += 1
         start = time.perf_counter()
-        for action in self.actions:
-            env.step(action)
+        self._step_all()
         self.best = min(self.best, time.perf_counter() - start)
 
     @property
     def rate(self) -> float:
         return len(self.actions) * self.num_envs / self.best
+
+
+class TimedVector(Timed):
+    """A native vector env of ``num_envs`` sub-envs, stepped ``steps`` vector steps a
+    round (each sub-env through its resets, as the single envs go through theirs)."""
+
+    def __init__(self, env_id: str, steps: int, num_envs: int, **kwargs: Any) -> None:
+        self.num_envs = num_envs
+        super().__init__(env_id, steps, **kwargs)
+
+    def _make(self, env_id: str, **kwargs: Any) -> Any:
+        return gym.make_vec(
+            env_id, num_envs=self.num_envs, vectorization_mode="vector_entry_point", **kwargs
+        )
+
+    def _step_all(self) -> None:
+        """Every action once (the vector env resets its sub-envs itself)."""
+        env = self.env
+        for action in self.actions:
+            env.step(action)
 
 
 def main(argv: list[str] | None = None) -> None:

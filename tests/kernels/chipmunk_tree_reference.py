@@ -4,15 +4,7 @@ is held to. cpfmin/cpfmax are ``a if a < b else b``, which keeps Chipmunk's sign
 
 from __future__ import annotations
 
-Box = tuple[float, float, float, float]  # cpBB: left, bottom, right, top
-
-
-def _fmin(a: float, b: float) -> float:
-    return a if a < b else b
-
-
-def _fmax(a: float, b: float) -> float:
-    return a if a > b else b
+from slam_env.kernels.chipmunk import Box, _fmax, _fmin
 
 
 def _merge(a: Box, b: Box) -> Box:
