@@ -25,6 +25,7 @@ from slam_env.config import EnvConfig
 from slam_env.coverage import CoverageGrid
 from slam_env.ekf import EKFSLAM
 from slam_env.ekf.batch import FilterBatch
+from slam_env.kernels.association_score import SCORE_NAMES, score_association
 from slam_env.kernels.diagnostics import DIAGNOSTICS, belief_diagnostics
 from slam_env.kernels.divergence import count_rejections, diverged
 from slam_env.kernels.observe import filter_inputs
@@ -70,8 +71,17 @@ class ActiveCore(BatchCore):
             max_landmarks=m,
             gate=options.gate,
             correction=options.correction,
+            data_association=options.data_association,
+            linearization=options.linearization,
         )
         self.filters = FilterBatch(b, template, d)
+        # Where the filters associate: the true landmark of each filter landmark, the
+        # map size before the update, and the association's scores (step, episode).
+        self.associates = template.associates
+        self.slot_truth = np.full((b, m), -1, dtype=np.int64)
+        self._n_before = np.zeros(b, dtype=np.int64)
+        self.score_step = np.zeros((b, len(SCORE_NAMES)), dtype=np.int64)
+        self.score_episode = np.zeros((b, len(SCORE_NAMES)), dtype=np.int64)
         self._geometry = BeliefGeometry(m, width, height, sensor.max_range)
         self._entropy_of = BeliefEntropy(m, width, height)
         self._passthrough = tuple(k for k in PASSTHROUGH_KEYS if k in raw.observation_space.spaces)
@@ -157,6 +167,8 @@ class ActiveCore(BatchCore):
             self.truth[b] = np.nan
             self.truth[b, worlds.landmark_ids[b]] = worlds.landmarks[b]
             filters.reset(b, worlds.poses[b])
+            self.slot_truth[b] = -1
+            self.score_episode[b] = 0
             self.failed[b] = False
             self.in_a_row[b] = 0
             if self.coverage is not None:
@@ -164,15 +176,21 @@ class ActiveCore(BatchCore):
             touched[b] = True
         out = raw.out
         filter_inputs(
-            out.odometry, out.detections, out.ids, touched, filters.u, filters.z, filters.ids
-        )
-        np.copyto(filters.counts, raw.det_count)
+            out.odometry, out.detections, out.ids, touched, filters.u, filters.z, filters.ids,
+            raw.det_count, filters.counts, not self.associates,
+        )  # fmt: skip
+        np.copyto(self._n_before, filters.n)
         filters.predict(stepping)
         self.failed |= stepping & (filters.error != 0)
         np.logical_and(touched, filters.counts > 0, out=self.updated)
         filters.update(self.updated)
         failed = self.updated & (filters.error != 0)
         self.failed |= failed
+        if self.associates:
+            score_association(
+                filters.assigned, filters.status, raw.det_ids, filters.counts, self._n_before,
+                self.slot_truth, touched & ~failed, self.score_step, self.score_episode,
+            )  # fmt: skip
         # A failed update changed nothing: it counts no rejection either.
         count_rejections(filters.status, filters.counts, self.updated & ~failed, self.in_a_row)
         self._observe(touched)
@@ -202,7 +220,13 @@ class ActiveCore(BatchCore):
         worlds."""
         filters, raw = self.filters, self.raw
         belief = (filters.x, filters.P, filters.n, filters.slot_to_id)
-        belief_diagnostics(*belief, raw.worlds.poses, self.truth, self.diagnostics, active)
+        # The map error pairs each filter landmark with its true one: the IDs are the
+        # truth's, unless the filter made its own.
+        truth_of_slots = self.slot_truth if self.associates else filters.slot_to_id
+        belief_diagnostics(
+            filters.x, filters.P, filters.n, truth_of_slots, raw.worlds.poses, self.truth,
+            self.diagnostics, active,
+        )  # fmt: skip
         self._entropy_of.batch(filters.P, filters.n, self.entropy, self._entropy_ok, active)
         tail, at = self._tail, 0
         for key in self._passthrough:
@@ -264,6 +288,12 @@ class ActiveCore(BatchCore):
         if self.coverage is not None:
             info["swept_fraction"] = float(self.swept_fraction[index])
         info["reward_terms"] = dict(zip(REWARD_TERMS, self.terms[index].tolist(), strict=True))
+        if self.associates:
+            for key, scores in (
+                ("association", self.score_step),
+                ("association_episode", self.score_episode),
+            ):
+                info[key] = dict(zip(SCORE_NAMES, scores[index].tolist(), strict=True))
         return info
 
     def infos(self) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
@@ -293,6 +323,12 @@ class ActiveCore(BatchCore):
         info["reward_terms"] = {
             name: self.terms[:, i].copy() for i, name in enumerate(REWARD_TERMS)
         }
+        if self.associates:
+            for key, scores in (
+                ("association", self.score_step),
+                ("association_episode", self.score_episode),
+            ):
+                info[key] = {name: scores[:, i].copy() for i, name in enumerate(SCORE_NAMES)}
         return info, masks
 
     def filter(self, index: int) -> EKFSLAM:

@@ -11,7 +11,7 @@ from typing import Any
 
 from slam_env.budget import check_budget, world_size
 from slam_env.config import EnvConfig, make_config, plain, with_defaults
-from slam_env.ekf import CORRECTION_MODES
+from slam_env.ekf import CORRECTION_MODES, DATA_ASSOCIATIONS, LINEARIZATIONS
 from slam_env.wrappers import DEFAULT_GATE, OBSERVATION_MODES, ActiveSLAMRewardWeights
 
 # Proximity beams in the active-SLAM observation, unless the options set them.
@@ -77,6 +77,8 @@ class ActiveSLAMOptions:
     filter_measurement_cov: Any = None
     reward_weights: Any = None
     coverage: bool = True
+    data_association: str = "known"
+    linearization: str = "standard"
     weights: ActiveSLAMRewardWeights = field(init=False)
 
     def __post_init__(self) -> None:
@@ -89,6 +91,12 @@ class ActiveSLAMOptions:
             raise ValueError(
                 f"correction must be one of {CORRECTION_MODES}, got {self.correction!r}"
             )
+        for name, choices in (
+            ("data_association", DATA_ASSOCIATIONS),
+            ("linearization", LINEARIZATIONS),
+        ):
+            if values[name] not in choices:
+                raise ValueError(f"{name} must be one of {choices}, got {values[name]!r}")
         gate = values["gate"]
         if gate is not None and not _number("gate", gate) > 0.0:
             raise ValueError(f"gate must be > 0 (a χ² threshold) or None, got {gate!r}")
@@ -132,10 +140,16 @@ class ActiveSLAMOptions:
 
     def check_against(self, config: EnvConfig) -> None:
         """``ValueError`` when the filter would take a noise-free measurement model
-        from the env (its innovation covariance would be singular)."""
+        from the env (its innovation covariance would be singular), or would need the
+        landmark IDs that the sensor does not report."""
+        sensor = config.sensor
+        if not sensor.report_ids and self.data_association == "known":
+            raise ValueError(
+                "report_ids=False hides the landmark IDs that data_association='known' needs: "
+                "choose data_association='nearest_neighbor' or 'jcbb'"
+            )
         if self.filter_measurement_cov is not None:
             return
-        sensor = config.sensor
         q = sensor.measurement_cov
         if not (q[0, 0] > 0.0 and q[1, 1] > 0.0):  # squares that underflow count as 0
             names = (

@@ -17,8 +17,11 @@ from slam_env.ekf.chi2 import chi2_gate, chi2_ppf
 from slam_env.ekf.filter import (
     CORRECTED,
     CORRECTION_MODES,
+    DATA_ASSOCIATIONS,
+    DISCARDED,
     EKFSLAM,
     INITIALISED,
+    LINEARIZATIONS,
     REJECTED,
     Status,
     UpdateResult,
@@ -29,8 +32,11 @@ from slam_env.ekf.models import MEASUREMENT_MODELS, MOTION_MODELS
 __all__ = [
     "CORRECTED",
     "CORRECTION_MODES",
+    "DATA_ASSOCIATIONS",
+    "DISCARDED",
     "EKFSLAM",
     "INITIALISED",
+    "LINEARIZATIONS",
     "MEASUREMENT_MODELS",
     "MOTION_MODELS",
     "REJECTED",

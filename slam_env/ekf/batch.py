@@ -7,15 +7,17 @@ from typing import Any
 
 import numpy as np
 
+from slam_env.ekf.chi2 import joint_gates
 from slam_env.ekf.filter import EKFSLAM
-from slam_env.kernels import ekf
+from slam_env.kernels import association, ekf
 
 
 class FilterBatch:
     """The state of B filters configured as ``template`` (an :class:`EKFSLAM`, whose own
     state is not used): ``x (B, dmax)``, ``P (B, dmax, dmax)``, ``n``, ``id_to_slot``,
-    ``slot_to_id`` and ``n_rejected``, laid out as the kernels take them, with the
-    inputs and outputs of a step. :meth:`predict` and :meth:`update` step the filters
+    ``slot_to_id``, ``n_rejected`` and ``first``, laid out as the kernels take them,
+    with the inputs and outputs of a step. :meth:`predict` and :meth:`update` step the
+    filters
     whose mask is set, each atomically (a filter whose step fails keeps its state and
     gets an error code in :attr:`error`); :meth:`filter` is filter b as an
     :class:`EKFSLAM` over the same storage. The inputs are the caller's to fill and are
@@ -37,6 +39,7 @@ class FilterBatch:
         self.id_to_slot = np.full((b, m), -1, dtype=np.int64)
         self.slot_to_id = np.full((b, m), -1, dtype=np.int64)
         self.n_rejected = np.zeros(b, dtype=np.int64)
+        self.first = np.zeros((b, dmax))
         self.params = np.repeat(template._params, b, axis=0)
         self.modes = np.repeat(template._modes, b, axis=0)
         # The inputs of a step (controls; observations, their IDs and counts), its
@@ -49,12 +52,24 @@ class FilterBatch:
         self.nis = np.zeros((b, d))
         self.error = np.zeros(b, dtype=np.int64)
         self._work = np.empty(ekf.update_workspace_size(dmax, d))
+        # Where the filters associate: the landmark each observation is given to (the
+        # IDs the update uses), each one's smallest D², the association's workspaces.
+        self.associates = template.associates
+        self.assigned = np.full((b, d), -1, dtype=np.int64)
+        self.nearest = np.full((b, d), np.inf)
+        if self.associates:
+            floats, ints = association.association_workspace_sizes(m, d)
+            self._assoc_work = (np.empty(floats), np.empty(ints, dtype=np.int64))
+            self._joint_gates = joint_gates(template.association_gates[0], d)
         self._views: dict[int, EKFSLAM] = {}
 
     @property
     def storage(self) -> tuple[np.ndarray, ...]:
-        """The six state arrays, in :attr:`EKFSLAM._STATE` order."""
-        return self.x, self.P, self.n, self.id_to_slot, self.slot_to_id, self.n_rejected
+        """The seven state arrays, in :attr:`EKFSLAM._STATE` order."""
+        return (
+            self.x, self.P, self.n, self.id_to_slot, self.slot_to_id, self.n_rejected,
+            self.first,
+        )  # fmt: skip
 
     def filter(self, index: int) -> EKFSLAM:
         """Filter ``index`` as an :class:`EKFSLAM` whose state is row ``index`` of this
@@ -72,15 +87,25 @@ class FilterBatch:
 
     def predict(self, mask: np.ndarray) -> None:
         """Predict the filters of ``mask`` (B,) bool with their controls :attr:`u`."""
-        ekf.predict(self.x, self.P, self.n, self.u, self.params, self.modes, mask, self.error)
+        ekf.predict(
+            self.x, self.P, self.n, self.first, self.u, self.params, self.modes, mask, self.error
+        )  # fmt: skip
 
     def update(self, mask: np.ndarray) -> None:
         """Update the filters of ``mask`` with their first :attr:`counts` observations
-        :attr:`z` of landmarks :attr:`ids`; per observation :attr:`status` and
-        :attr:`nis`."""
+        :attr:`z` of landmarks :attr:`ids` (where the filters associate, of the
+        landmarks they choose: :attr:`assigned`, each one's smallest D² in
+        :attr:`nearest`); per observation :attr:`status` and :attr:`nis`."""
+        ids = self.ids
+        if self.associates:
+            association.associate(
+                self.x, self.P, self.n, self.params, self.modes, self._joint_gates, self.z,
+                self.counts, mask, self.assigned, self.nearest, *self._assoc_work,
+            )  # fmt: skip
+            ids = self.assigned
         ekf.update(
             self.x, self.P, self.n, self.id_to_slot, self.slot_to_id, self.n_rejected,
-            self.params, self.modes, self.z, self.ids, self.counts, mask,
+            self.first, self.params, self.modes, self.z, ids, self.counts, mask,
             self.status, self.nis, self.error, self._work,
         )  # fmt: skip
 
