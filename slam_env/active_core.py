@@ -73,6 +73,7 @@ class ActiveCore(BatchCore):
             correction=options.correction,
             data_association=options.data_association,
             linearization=options.linearization,
+            new_landmark_sightings=options.new_landmark_sightings,
         )
         self.filters = FilterBatch(b, template, d)
         # Where the filters associate: the true landmark of each filter landmark, the

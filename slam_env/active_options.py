@@ -79,6 +79,7 @@ class ActiveSLAMOptions:
     coverage: bool = True
     data_association: str = "known"
     linearization: str = "standard"
+    new_landmark_sightings: int = 1
     weights: ActiveSLAMRewardWeights = field(init=False)
 
     def __post_init__(self) -> None:
@@ -97,6 +98,9 @@ class ActiveSLAMOptions:
         ):
             if values[name] not in choices:
                 raise ValueError(f"{name} must be one of {choices}, got {values[name]!r}")
+        sightings = values["new_landmark_sightings"]
+        if isinstance(sightings, bool) or sightings not in (1, 2):
+            raise ValueError(f"new_landmark_sightings must be 1 or 2, got {sightings!r}")
         gate = values["gate"]
         if gate is not None and not _number("gate", gate) > 0.0:
             raise ValueError(f"gate must be > 0 (a χ² threshold) or None, got {gate!r}")

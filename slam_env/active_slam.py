@@ -45,7 +45,9 @@ class ActiveSLAMEnv(CoreEnv):
     ``filter_control_noise``, ``filter_measurement_cov`` (a mismatched filter; default:
     the env's true noise), ``data_association`` (``"known"``: the sensor's IDs;
     ``"nearest_neighbor"`` | ``"jcbb"``: the filter chooses, needed with
-    ``report_ids=False``), ``linearization`` (``"standard"`` | ``"fej"``),
+    ``report_ids=False``), ``new_landmark_sightings`` (1, or 2: a new landmark waits
+    for a second sighting, which keeps clutter out of the map), ``linearization``
+    (``"standard"`` | ``"fej"``),
     ``reward_weights`` (an :class:`ActiveSLAMRewardWeights` or a dict of its fields),
     ``coverage`` (default ``True``: a
     :class:`slam_env.coverage.CoverageWrapper` adds the swept-area features, which a
@@ -88,6 +90,7 @@ class ActiveSLAMEnv(CoreEnv):
         coverage: bool = True,
         data_association: str = "known",
         linearization: str = "standard",
+        new_landmark_sightings: int = 1,
         **env_options: Any,
     ) -> None:
         opts = ActiveSLAMOptions(
@@ -101,6 +104,7 @@ class ActiveSLAMEnv(CoreEnv):
             coverage,
             data_association,
             linearization,
+            new_landmark_sightings,
         )
         check_option_names(env_options, ENV_ARGUMENTS + _OWN_ARGUMENTS)
         config = active_config(opts, env_options, num_envs=1)

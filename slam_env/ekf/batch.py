@@ -15,7 +15,8 @@ from slam_env.kernels import association, ekf
 class FilterBatch:
     """The state of B filters configured as ``template`` (an :class:`EKFSLAM`, whose own
     state is not used): ``x (B, dmax)``, ``P (B, dmax, dmax)``, ``n``, ``id_to_slot``,
-    ``slot_to_id``, ``n_rejected`` and ``first``, laid out as the kernels take them,
+    ``slot_to_id``, ``n_rejected``, ``first`` and ``tentative``, laid out as the
+    kernels take them,
     with the inputs and outputs of a step. :meth:`predict` and :meth:`update` step the
     filters
     whose mask is set, each atomically (a filter whose step fails keeps its state and
@@ -40,6 +41,7 @@ class FilterBatch:
         self.slot_to_id = np.full((b, m), -1, dtype=np.int64)
         self.n_rejected = np.zeros(b, dtype=np.int64)
         self.first = np.zeros((b, dmax))
+        self.tentative = np.full((b, association.TENTATIVE_ROWS, association.TENTATIVE_WIDTH), -1.0)
         self.params = np.repeat(template._params, b, axis=0)
         self.modes = np.repeat(template._modes, b, axis=0)
         # The inputs of a step (controls; observations, their IDs and counts), its
@@ -61,14 +63,15 @@ class FilterBatch:
             floats, ints = association.association_workspace_sizes(m, d)
             self._assoc_work = (np.empty(floats), np.empty(ints, dtype=np.int64))
             self._joint_gates = joint_gates(template.association_gates[0], d)
+            self._held = np.empty_like(self.tentative)
         self._views: dict[int, EKFSLAM] = {}
 
     @property
     def storage(self) -> tuple[np.ndarray, ...]:
-        """The seven state arrays, in :attr:`EKFSLAM._STATE` order."""
+        """The state arrays, in :attr:`EKFSLAM._STATE` order."""
         return (
             self.x, self.P, self.n, self.id_to_slot, self.slot_to_id, self.n_rejected,
-            self.first,
+            self.first, self.tentative,
         )  # fmt: skip
 
     def filter(self, index: int) -> EKFSLAM:
@@ -100,7 +103,8 @@ class FilterBatch:
         if self.associates:
             association.associate(
                 self.x, self.P, self.n, self.params, self.modes, self._joint_gates, self.z,
-                self.counts, mask, self.assigned, self.nearest, *self._assoc_work,
+                self.counts, mask, self.assigned, self.nearest, self.tentative, self._held,
+                *self._assoc_work,
             )  # fmt: skip
             ids = self.assigned
         ekf.update(
@@ -108,6 +112,9 @@ class FilterBatch:
             self.first, self.params, self.modes, self.z, ids, self.counts, mask,
             self.status, self.nis, self.error, self._work,
         )  # fmt: skip
+        if self.associates:  # the tentative sightings of the updates that succeeded
+            kept = mask & (self.error == 0)
+            self.tentative[kept] = self._held[kept]
 
     # Pickling: the views are rebuilt on demand over the unpickled arrays.
     def __getstate__(self) -> dict[str, Any]:

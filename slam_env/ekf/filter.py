@@ -71,6 +71,7 @@ __all__ = [
     "INITIALISED",
     "LINEARIZATIONS",
     "REJECTED",
+    "TENTATIVE",
     "Status",
     "UpdateResult",
     "chi2_gate",
@@ -88,11 +89,11 @@ _ASSOCIATION_CODES = {
 DATA_ASSOCIATIONS = tuple(_ASSOCIATION_CODES)
 _LINEARIZATION_CODES = {"standard": ekf.STANDARD, "fej": ekf.FEJ}
 LINEARIZATIONS = tuple(_LINEARIZATION_CODES)
-# The association's gates by default: a landmark within the 99% χ² region of an
-# observation is compatible with it; one within the 99.99% region forbids starting a
-# new landmark there.
-MATCH_PROBABILITY = 0.99
-NEW_LANDMARK_PROBABILITY = 0.9999
+# The association's gates by default: a landmark within the 99.9% χ² region of an
+# observation is compatible with it (as ActiveSLAM-v0's validation gate accepts it);
+# one within the 99.999% region forbids starting a new landmark there.
+MATCH_PROBABILITY = 0.999
+NEW_LANDMARK_PROBABILITY = 0.99999
 
 
 class Status(enum.IntEnum):
@@ -104,12 +105,14 @@ class Status(enum.IntEnum):
     # linearise: range-bearing with the landmark estimated on the robot): not
     # applied, counted in n_rejected
     DISCARDED = 3  # the association gave it to no landmark (ambiguous, or no room)
+    TENTATIVE = 4  # held as the first sighting of a possible new landmark
 
 
 CORRECTED = Status.CORRECTED
 INITIALISED = Status.INITIALISED
 REJECTED = Status.REJECTED
 DISCARDED = Status.DISCARDED
+TENTATIVE = Status.TENTATIVE
 
 
 @dataclass(frozen=True)
@@ -117,7 +120,8 @@ class UpdateResult:
     """Per-observation outcome of one ``EKFSLAM.update``, in the order given.
 
     ``ids: (k,) int64`` the landmark each observation was given to: the ID the caller
-    gave (known correspondences) or the one the association chose (``-1``: discarded);
+    gave (known correspondences) or the one the association chose (``-1``: discarded,
+    ``-2``: held as tentative);
     ``status: (k,) int8`` :class:`Status` codes;
     ``nis: (k,) float64`` the normalised innovation squared ``νᵀS⁻¹ν`` of each
     correction or rejection (``nan`` for an initialised landmark, and for a landmark
@@ -157,6 +161,11 @@ class UpdateResult:
         """(k,) bool: observations the association gave to no landmark."""
         return self.status == Status.DISCARDED
 
+    @property
+    def tentative(self) -> np.ndarray:
+        """(k,) bool: observations held as the first sighting of a new landmark."""
+        return self.status == Status.TENTATIVE
+
 
 # What a kernel's error code means to the caller of EKFSLAM.
 _NUMERICAL_ERRORS = {
@@ -177,17 +186,22 @@ def kernel_config(
     data_association: str = "known",
     linearization: str = "standard",
     association_gates: tuple[float, float] = (np.inf, np.inf),
+    new_landmark_sightings: int = 1,
 ) -> tuple[np.ndarray, np.ndarray]:
     """One filter's configuration as the kernels of :mod:`slam_env.kernels.ekf` take
-    it: its row of ``params`` ((10,) float64: the motion noise (α1..α4, or σp, σθ, βp,
+    it: its row of ``params`` ((11,) float64: the motion noise (α1..α4, or σp, σθ, βp,
     βθ), Q00, Q01, Q11, the gate, ``inf`` for none, the association's match and
-    new-landmark gates) and of ``modes`` ((5,) int64: the motion, measurement,
-    correction, association and linearisation codes). Arguments as :class:`EKFSLAM`'s,
-    already checked (``noise`` the parameters of the chosen motion model)."""
+    new-landmark gates and the sightings a new landmark needs) and of ``modes`` ((5,)
+    int64: the motion, measurement, correction, association and linearisation codes).
+    Arguments as :class:`EKFSLAM`'s, already checked (``noise`` the parameters of the
+    chosen motion model)."""
     Q = measurement_cov
     params = np.array(
-        [*noise, Q[0, 0], Q[0, 1], Q[1, 1], np.inf if gate is None else gate, *association_gates]
-    )
+        [
+            *noise, Q[0, 0], Q[0, 1], Q[1, 1], np.inf if gate is None else gate,
+            *association_gates, new_landmark_sightings,
+        ]
+    )  # fmt: skip
     modes = np.array(
         [
             MOTION_MODELS[motion_model].code,
@@ -234,10 +248,13 @@ class EKFSLAM:
             module's docstring).
         match_gate, new_landmark_gate: the association's χ² thresholds on an
             observation's D² to a landmark (2 dof): compatible within ``match_gate``
-            (default :func:`chi2_gate` (0.99)); a new landmark only where every
-            landmark lies beyond ``new_landmark_gate`` (default 0.9999), which must be
+            (default :func:`chi2_gate` (0.999)); a new landmark only where every
+            landmark lies beyond ``new_landmark_gate`` (default 0.99999), which must be
             at least ``match_gate``. JCBB's joint test is at ``match_gate``'s
             probability, 2 dof per pairing.
+        new_landmark_sightings: 1 (a new landmark starts at its first sighting) or 2
+            (it is held as tentative until a second, consistent sighting: what keeps
+            clutter out of the map; see :mod:`slam_env.kernels.association`).
         linearization: ``"standard"`` (the seeds) or ``"fej"`` (First-Estimates
             Jacobian EKF).
 
@@ -271,6 +288,7 @@ class EKFSLAM:
         linearization: str = "standard",
         match_gate: float | None = None,
         new_landmark_gate: float | None = None,
+        new_landmark_sightings: int = 1,
     ) -> None:
         if motion_model not in MOTION_MODELS:
             raise ValueError(
@@ -292,6 +310,11 @@ class EKFSLAM:
                 f"linearization must be one of {LINEARIZATIONS}, got {linearization!r}"
             )
         gates = self._check_association_gates(match_gate, new_landmark_gate)
+        sightings = new_landmark_sightings
+        if isinstance(sightings, (bool, np.bool_)) or sightings not in (1, 2):
+            raise ValueError(
+                f"new_landmark_sightings must be 1 or 2, got {new_landmark_sightings!r}"
+            )
         self._alphas = None if alphas is None else checks.noise_params(alphas, "alphas")
         self._control_noise = (
             None if control_noise is None else checks.noise_params(control_noise, "control_noise")
@@ -322,6 +345,7 @@ class EKFSLAM:
         self._association = data_association
         self._linearization = linearization
         self._association_gates = gates
+        self._sightings = int(new_landmark_sightings)
         self._Q = Q
         self._N = int(max_landmarks)
         self._initial_pose = pose0
@@ -336,6 +360,7 @@ class EKFSLAM:
         self._slot_to_id_b = np.full((1, self._N), -1, dtype=np.int64)
         self._n_rejected_b = np.zeros(1, dtype=np.int64)
         self._firstb = np.zeros((1, dmax))
+        self._tentativeb = np.zeros((1, association.TENTATIVE_ROWS, association.TENTATIVE_WIDTH))
         self._setup()
         self._set_prior(pose0, cov0)
 
@@ -380,6 +405,7 @@ class EKFSLAM:
             self._association,
             self._linearization,
             self._association_gates,
+            self._sightings,
         )
         self._params = params[None]
         self._modes = modes[None]
@@ -412,6 +438,7 @@ class EKFSLAM:
             if self.associates:
                 floats, ints = association.association_workspace_sizes(self._N, max_obs)
                 self._assoc_work = (np.empty(floats), np.empty(ints, dtype=np.int64))
+                self._held = np.empty_like(self._tentativeb)
                 self._joint_gates = joint_gates(self._association_gates[0], max_obs)
 
     @staticmethod
@@ -424,6 +451,7 @@ class EKFSLAM:
     def _set_prior(self, pose: np.ndarray, cov: np.ndarray) -> None:
         self._x[:3] = pose
         self._firstb[0, :3] = pose
+        self._tentativeb[..., association.AGE] = -1.0  # no tentative sightings
         self._P[:3, :3] = cov
         self._nb[0] = 0
         self._n_rejected_b[0] = 0
@@ -464,6 +492,10 @@ class EKFSLAM:
     @property
     def linearization(self) -> str:
         return self._linearization
+
+    @property
+    def new_landmark_sightings(self) -> int:
+        return self._sightings
 
     @property
     def association_gates(self) -> tuple[float, float]:
@@ -593,6 +625,7 @@ class EKFSLAM:
     # never mutate it) or rebuilt by _setup.
     _STATE = (
         "_xb", "_Pb", "_nb", "_id_to_slot_b", "_slot_to_id_b", "_n_rejected_b", "_firstb",
+        "_tentativeb",
     )  # fmt: skip
     _CONFIG = (
         "_motion_name",
@@ -602,6 +635,7 @@ class EKFSLAM:
         "_association",
         "_linearization",
         "_association_gates",
+        "_sightings",
         "_Q",
         "_N",
         "_alphas",
@@ -618,7 +652,9 @@ class EKFSLAM:
         d = self.dim
         new._Pb = np.empty_like(self._Pb)
         new._Pb[0, :d, :d] = self._Pb[0, :d, :d]
-        for name in ("_xb", "_nb", "_id_to_slot_b", "_slot_to_id_b", "_n_rejected_b", "_firstb"):
+        for name in self._STATE:
+            if name == "_Pb":
+                continue
             setattr(new, name, getattr(self, name).copy())
         new._setup()
         return new
@@ -626,8 +662,9 @@ class EKFSLAM:
     __copy__ = copy
 
     def _view_over(self, storage: tuple[np.ndarray, ...]) -> EKFSLAM:
-        """A filter with this one's configuration over ``storage``: the seven state
-        arrays ``(x, P, n, id_to_slot, slot_to_id, n_rejected, first)`` of a batch of one, e.g.
+        """A filter with this one's configuration over ``storage``: the state arrays of
+        :attr:`_STATE` (``x, P, n, id_to_slot, slot_to_id, n_rejected, first,
+        tentative``) of a batch of one, e.g.
         views of row b of :class:`slam_env.ekf.batch.FilterBatch`'s (shared, not
         copied: what one does, the other sees). Pickling or copying it copies the
         state, as for any filter."""
@@ -710,7 +747,8 @@ class EKFSLAM:
                 raise checks.bad_observations(zb[0], np.zeros(k, dtype=np.int64), self._N)
             association.associate(
                 self._xb, self._Pb, self._nb, self._params, self._modes, self._joint_gates,
-                zb, count, self._mask, idb, nearest, *self._assoc_work,
+                zb, count, self._mask, idb, nearest, self._tentativeb, self._held,
+                *self._assoc_work,
             )  # fmt: skip
         error = self._error
         ekf.update(*self._update_state, zb, idb, count, self._mask, status, nis, error, self._work)
@@ -718,6 +756,8 @@ class EKFSLAM:
             self._raise(
                 int(error[0]), "update", lambda: checks.bad_observations(zb[0], idb[0], self._N)
             )
+        if self.associates:
+            self._tentativeb[...] = self._held  # kept only once the update has succeeded
         return UpdateResult(idb[0], status[0], nis[0], nearest[0])
 
     @staticmethod

@@ -24,8 +24,18 @@ room; otherwise it is discarded (ambiguous: near a landmark, but not compatible,
 wanted by another observation). The filter owns the identities: a landmark's ID is its
 slot, so a new one gets the next free slot, in the order of the observations.
 
+Clutter (detections of nothing) would start a landmark each time. With ``SIGHTINGS``
+= 2 a new landmark needs a second sighting: a first one is held as *tentative* (its
+world position from the pose estimate, and that position's covariance from the
+measurement noise alone, ``W Q Wᵀ``), and a later observation outside every
+landmark's ``NEW_GATE`` that lies within ``MATCH_GATE`` of a tentative one (the χ²
+distance of the two positions over the sum of their covariances) starts the landmark,
+from that observation. A tentative sighting lapses after :data:`CONFIRM_WINDOW`
+updates; clutter, scattered at random, is almost never confirmed.
+
 Output ``assigned[b, j]``: the ID the update (:func:`slam_env.kernels.ekf.update`)
-should use for observation j: a landmark's ID, a new ID, or -1 (discarded).
+should use for observation j: a landmark's ID, a new ID, ``DISCARD_ID`` or
+``TENTATIVE_ID``.
 """
 
 from __future__ import annotations
@@ -35,10 +45,34 @@ import math
 import numpy as np
 
 from slam_env.kernels import kernel
-from slam_env.kernels.ekf import ASSOCIATION, JCBB, MATCH_GATE, MEASUREMENT, NEW_GATE, Q00, Q01, Q11
-from slam_env.kernels.models import innovation, jacobian, observe, singular
+from slam_env.kernels.ekf import (
+    ASSOCIATION,
+    DISCARD_ID,
+    JCBB,
+    MATCH_GATE,
+    MEASUREMENT,
+    NEW_GATE,
+    Q00,
+    Q01,
+    Q11,
+    SIGHTINGS,
+    TENTATIVE_ID,
+)
+from slam_env.kernels.models import (
+    innovation,
+    inverse,
+    inverse_jacobian,
+    jacobian,
+    observe,
+    singular,
+)
 
 MAX_NODES = 20_000  # hypotheses JCBB examines in one scan, at most
+CONFIRM_WINDOW = 5  # updates a tentative sighting waits for its confirmation
+# Columns of a tentative sighting: world position, its covariance, its age in updates
+# (negative: the row is free).
+PX, PY, C00, C01, C11, AGE, TENTATIVE_WIDTH = 0, 1, 2, 3, 4, 5, 6
+TENTATIVE_ROWS = 16  # tentative sightings a filter holds at once (the oldest gives way)
 
 # Columns of a pairing's scratch row: H (2×5, row major), ν, the landmark's first row,
 # the observation's index.
@@ -296,6 +330,66 @@ def _jcbb(
 
 
 @kernel
+def _confirm(
+    model: int,
+    x: np.ndarray,
+    z0: float,
+    z1: float,
+    params: np.ndarray,
+    held: np.ndarray,
+) -> bool:
+    """A sighting outside every landmark's new-landmark gate: True where it confirms
+    a tentative one in ``held`` (T, 6) (which is then freed), False where it is held
+    as tentative itself (in a free row, or over the oldest)."""
+    px, py = inverse(model, x[0], x[1], x[2], z0, z1)
+    lw = inverse_jacobian(model, x[2], z0, z1)
+    w00, w01, w10, w11 = lw[2], lw[3], lw[4], lw[5]
+    q00, q01, q11 = params[Q00], params[Q01], params[Q11]
+    t00 = w00 * q00 + w01 * q01  # W Q
+    t01 = w00 * q01 + w01 * q11
+    t10 = w10 * q00 + w11 * q01
+    t11 = w10 * q01 + w11 * q11
+    c00 = t00 * w00 + t01 * w01  # W Q Wᵀ
+    c01 = t00 * w10 + t01 * w11
+    c11 = t10 * w10 + t11 * w11
+    best = params[MATCH_GATE]
+    found = -1
+    free = -1
+    oldest = 0
+    for t in range(held.shape[0]):
+        age = held[t, AGE]
+        if age < 0.0:
+            free = t if free < 0 else free
+            continue
+        oldest = t if age > held[oldest, AGE] else oldest
+        if age < 1.0:
+            continue  # held in this very scan: another observation of it cannot confirm it
+        dx = px - held[t, PX]
+        dy = py - held[t, PY]
+        s00 = c00 + held[t, C00]
+        s01 = c01 + held[t, C01]
+        s11 = c11 + held[t, C11]
+        det = s00 * s11 - s01 * s01
+        if not det > 0.0:
+            continue
+        d2 = (s11 * dx * dx - 2.0 * s01 * dx * dy + s00 * dy * dy) / det
+        if d2 <= best:
+            best = d2
+            found = t
+    if found >= 0:
+        held[found, AGE] = -1.0
+        return True
+    row = free if free >= 0 else oldest
+    held[row, PX] = px
+    held[row, PY] = py
+    held[row, C00] = c00
+    held[row, C01] = c01
+    held[row, C11] = c11
+    held[row, AGE] = 0.0
+    return False
+
+
+@kernel
 def associate(
     x: np.ndarray,
     P: np.ndarray,
@@ -308,6 +402,8 @@ def associate(
     mask: np.ndarray,
     assigned: np.ndarray,
     d2_min: np.ndarray,
+    tentative: np.ndarray,
+    held: np.ndarray,
     fwork: np.ndarray,
     iwork: np.ndarray,
 ) -> None:
@@ -315,7 +411,10 @@ def associate(
     world with ``mask[b]`` (see the module's docstring) into ``assigned[b]`` ((B, D)
     int64, -1 past the count and in the worlds not touched); ``d2_min[b, j]`` gets the
     smallest D² of observation j over the world's landmarks (``inf`` with none).
-    ``joint_gates[m]``: the joint χ² threshold for m pairings (length ≥ D + 1). The
+    ``joint_gates[m]``: the joint χ² threshold for m pairings (length ≥ D + 1).
+    ``tentative`` (B, T, 6): each world's tentative sightings, not written; the
+    worlds associated get them after this update in ``held`` (same shape), for the
+    caller to keep once the update has succeeded. The
     workspaces ``fwork``/``iwork`` need :func:`association_workspace_sizes`
     ``(M, D)`` entries (M = ``x.shape[1] // 2 - 1``, the landmark slots)."""
     B = x.shape[0]
@@ -394,8 +493,25 @@ def associate(
             )
         else:
             _nearest_neighbour(d2, k, nb, gate, out, used)
+        # New landmarks: at once, or on a second sighting.
+        confirm = pb[SIGHTINGS] > 1.0
+        hb = held[b]
+        for t in range(hb.shape[0]):
+            for c in range(TENTATIVE_WIDTH):
+                hb[t, c] = tentative[b, t, c]
+            if confirm and hb[t, AGE] >= 0.0:
+                hb[t, AGE] += 1.0
+                if hb[t, AGE] > CONFIRM_WINDOW:
+                    hb[t, AGE] = -1.0
         slot = nb
         for j in range(k):
-            if out[j] < 0 and d2_min[b, j] > pb[NEW_GATE] and slot < M:
-                out[j] = slot
-                slot += 1
+            if out[j] >= 0:
+                continue
+            out[j] = DISCARD_ID
+            if not (d2_min[b, j] > pb[NEW_GATE] and slot < M):
+                continue
+            if confirm and not _confirm(model, xb, z[b, j, 0], z[b, j, 1], pb, hb):
+                out[j] = TENTATIVE_ID
+                continue
+            out[j] = slot
+            slot += 1

@@ -6,11 +6,12 @@ Each filter landmark (slot) is identified with the true landmark of the detectio
 started it (``slot_truth``, -1 for one started from clutter). An observation of true
 landmark t (-1: clutter) is
 
-* correct: given to a filter landmark of t; or starting a landmark for a t not yet in
-  the map; or, for clutter, discarded;
+* correct: given to a filter landmark of t; or starting (or held as the tentative
+  sighting of) a landmark for a t not yet in the map; or, for clutter, discarded or
+  held as tentative;
 * wrong: given to (or starting) a landmark that is not t's (clutter given to anything);
-* missed: a detection of a true landmark that was discarded, or that started a second
-  filter landmark for a t already in the map.
+* missed: a detection of a true landmark that was discarded, or, for a t already in the
+  map, that started a second filter landmark or was held as tentative.
 
 ``duplicated``: the filter landmarks beyond the first for each true landmark.
 """
@@ -20,7 +21,7 @@ from __future__ import annotations
 import numpy as np
 
 from slam_env.kernels import kernel
-from slam_env.kernels.ekf import CORRECTED, DISCARDED, INITIALISED, REJECTED
+from slam_env.kernels.ekf import CORRECTED, DISCARDED, INITIALISED, REJECTED, TENTATIVE
 
 # Columns of the counts.
 CORRECT, WRONG, MISSED, DUPLICATED = 0, 1, 2, 3
@@ -57,12 +58,15 @@ def score_association(
             st = status[b, j]
             if st in (CORRECTED, REJECTED):
                 step[b, CORRECT if t >= 0 and slot_truth[b, a] == t else WRONG] += 1
-            elif st == INITIALISED:
-                slot_truth[b, a] = t
+            elif st in (INITIALISED, TENTATIVE):
                 known = False
                 for i in range(n0):
                     known = known or (t >= 0 and slot_truth[b, i] == t)
-                step[b, WRONG if t < 0 else MISSED if known else CORRECT] += 1
+                if st == INITIALISED:
+                    slot_truth[b, a] = t
+                    step[b, WRONG if t < 0 else MISSED if known else CORRECT] += 1
+                else:
+                    step[b, MISSED if known else CORRECT] += 1
             elif st == DISCARDED:
                 step[b, CORRECT if t < 0 else MISSED] += 1
         duplicated = 0

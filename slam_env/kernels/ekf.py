@@ -15,12 +15,12 @@ State of B filters with room for M landmarks (``dmax = 3 + 2M``)
 Slot i is rows ``3+2i, 4+2i``; new landmarks take the next slots in the order first seen.
 
 Configuration, per world
-    params (B, 10) float64         :data:`NOISE` (α1..α4 for odometry, σp, σθ, βp, βθ for
+    params (B, 11) float64         :data:`NOISE` (α1..α4 for odometry, σp, σθ, βp, βθ for
                                    velocity), :data:`Q00`, :data:`Q01`, :data:`Q11` (the
                                    measurement covariance) and :data:`GATE` (the χ²
                                    threshold; ``inf`` accepts everything), then the
-                                   association's :data:`MATCH_GATE` and
-                                   :data:`NEW_GATE` (see :mod:`.association`)
+                                   association's :data:`MATCH_GATE`, :data:`NEW_GATE`
+                                   and :data:`SIGHTINGS` (see :mod:`.association`)
     modes (B, 5) int64             :data:`MOTION` (``ODOMETRY``/``VELOCITY`` of
                                    :mod:`slam_env.kernels.models`), :data:`MEASUREMENT`
                                    (``RANGE_BEARING``/``CARTESIAN``), :data:`CORRECTION`
@@ -73,8 +73,8 @@ from slam_env.kernels.models import (
 )
 
 # params columns
-NOISE, Q00, Q01, Q11, GATE, MATCH_GATE, NEW_GATE = 0, 4, 5, 6, 7, 8, 9
-N_PARAMS = 10
+NOISE, Q00, Q01, Q11, GATE, MATCH_GATE, NEW_GATE, SIGHTINGS = 0, 4, 5, 6, 7, 8, 9, 10
+N_PARAMS = 11
 # modes columns, and the codes of each mode
 MOTION, MEASUREMENT, CORRECTION, ASSOCIATION, LINEARIZATION = 0, 1, 2, 3, 4
 N_MODES = 5
@@ -84,13 +84,15 @@ STANDARD, FEJ = 0, 1
 
 # Per-observation status (slam_env.ekf.Status), and UNUSED for padding, worlds not
 # touched and worlds whose update failed. DISCARDED: an observation the association
-# gave to no landmark (ID -1).
-CORRECTED, INITIALISED, REJECTED, DISCARDED, UNUSED = 0, 1, 2, 3, -1
+# gave to no landmark (ID DISCARD_ID); TENTATIVE: one it holds as a possible new
+# landmark until a second sighting confirms it (ID TENTATIVE_ID).
+CORRECTED, INITIALISED, REJECTED, DISCARDED, TENTATIVE, UNUSED = 0, 1, 2, 3, 4, -1
+DISCARD_ID, TENTATIVE_ID = -1, -2
 
 # Per-world error codes.
 OK = 0
 BAD_INPUT = 1  # a control or measurement not finite, or a count outside [0, D]
-BAD_ID = 2  # a landmark ID outside [0, M) (-1 allowed where the filter associates)
+BAD_ID = 2  # a landmark ID outside [0, M) (-1, -2 allowed where the filter associates)
 DUPLICATE_ID = 3  # the same landmark ID twice in one update
 SMALL_WORKSPACE = 4  # work has fewer than update_workspace_size(dmax, D) entries
 NOT_POSITIVE_DEFINITE = 5  # S (or the Joseph factor's I − WᵀW) is not positive definite
@@ -765,13 +767,15 @@ def update(
     re-linearised at the corrected mean, or stacked in batch mode), each passing the
     χ² gate; then the new landmarks are initialised from the corrected belief, in the
     given order. Where the filter associates (``modes[b, ASSOCIATION] != KNOWN``) an ID
-    of -1 is an observation given to no landmark, :data:`DISCARDED`.
+    of :data:`DISCARD_ID` is an observation given to no landmark, :data:`DISCARDED`,
+    and :data:`TENTATIVE_ID` one held for confirmation, :data:`TENTATIVE`.
     ``status[b, j]`` ((B, D) int8) gets :data:`CORRECTED`, :data:`INITIALISED`,
-    :data:`REJECTED` or :data:`DISCARDED` (:data:`UNUSED` past the count, for worlds
-    not touched and for a failed world); ``nis[b, j]`` ((B, D) float64) νᵀS⁻¹ν of each
-    correction or rejection (NaN otherwise); ``error[b]`` the error code. ``work``: a
-    float64 scratch array of at least :func:`update_workspace_size` ``(dmax, D)``
-    entries, shared by the worlds (they are updated one after the other)."""
+    :data:`REJECTED`, :data:`DISCARDED` or :data:`TENTATIVE` (:data:`UNUSED` past the
+    count, for worlds not touched and for a failed world); ``nis[b, j]`` ((B, D)
+    float64) νᵀS⁻¹ν of each correction or rejection (NaN otherwise); ``error[b]`` the
+    error code. ``work``: a float64 scratch array of at least
+    :func:`update_workspace_size` ``(dmax, D)`` entries, shared by the worlds (they are
+    updated one after the other)."""
     B = x.shape[0]
     dmax = x.shape[1]
     D = z.shape[1]
@@ -814,7 +818,7 @@ def update(
         pb = params[b]
         k = counts[b]
         d = 3 + 2 * n[b]
-        lowest = 0 if modes[b, ASSOCIATION] == KNOWN else -1
+        lowest = 0 if modes[b, ASSOCIATION] == KNOWN else TENTATIVE_ID
         err = (
             BAD_INPUT
             if k < 0 or k > D
@@ -836,7 +840,7 @@ def update(
         for j in range(k + 1 if err == OK else 0):
             if j < k:
                 if ib[j] < 0:
-                    st[j] = DISCARDED
+                    st[j] = DISCARDED if ib[j] == DISCARD_ID else TENTATIVE
                     continue
                 slot = slot_of[ib[j]]
                 if slot < 0:

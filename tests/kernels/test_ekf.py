@@ -200,7 +200,9 @@ def test_b_worlds_equal_b_independent_filters_bit_for_bit():
 
 
 def test_the_status_codes_are_the_filters():
-    assert tuple(Status) == (ekf.CORRECTED, ekf.INITIALISED, ekf.REJECTED, ekf.DISCARDED)
+    assert tuple(Status) == (
+        ekf.CORRECTED, ekf.INITIALISED, ekf.REJECTED, ekf.DISCARDED, ekf.TENTATIVE,
+    )  # fmt: skip
     assert len(ekf.ERROR_NAMES) == ekf.OVERFLOW + 1
 
 
