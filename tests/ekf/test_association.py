@@ -11,10 +11,10 @@ import pickle
 import numpy as np
 import pytest
 
-from slam_env.ekf import DISCARDED, EKFSLAM, INITIALISED, chi2_gate
+from slam_env.ekf import DISCARDED, EKFSLAM, INITIALISED, TENTATIVE, chi2_gate
 from slam_env.ekf.models import MEASUREMENT_MODELS, MOTION_MODELS
+from slam_env.kernels import association, ekf
 from slam_env.kernels import association_score as score
-from slam_env.kernels import ekf
 
 ALPHAS = (0.002, 0.001, 0.002, 0.001)
 Q = {
@@ -232,3 +232,32 @@ def test_the_scores_of_a_hand_made_update():
     }
     assert episode[0].tolist() == [14, 3, 4, 1]
     assert slot_truth[0].tolist() == [5, 7, 7, 11, -1, -1]
+
+
+def test_a_second_sighting_starts_a_tentative_landmark_within_the_window():
+    """With ``new_landmark_sightings=2`` the first sighting is held (ID −2); a second,
+    consistent one within CONFIRM_WINDOW updates starts the landmark; a sighting that
+    waited longer lapses and is held again; two sightings in one scan never confirm
+    each other."""
+    window = association.CONFIRM_WINDOW
+    z = np.array([[3.0, 0.4]])
+    for quiet, confirmed in ((0, True), (window - 1, True), (window, False)):
+        f = make("jcbb", new_landmark_sightings=2)
+        first = f.update(z)
+        assert first.status.tolist() == [TENTATIVE] and first.ids.tolist() == [-2]
+        for _ in range(quiet):
+            f.update(np.zeros((0, 2)))
+        second = f.update(z + 0.01)
+        assert second.status.tolist() == ([INITIALISED] if confirmed else [TENTATIVE])
+        assert f.n_landmarks == int(confirmed)
+    f = make("nearest_neighbor", new_landmark_sightings=2)
+    assert f.update(np.array([[3.0, 0.4], [3.0, 0.4]])).status.tolist() == [TENTATIVE] * 2
+    assert f.n_landmarks == 0
+
+
+def test_an_inconsistent_second_sighting_does_not_confirm():
+    f = make("jcbb", new_landmark_sightings=2)
+    f.update(np.array([[3.0, 0.4]]))
+    assert f.update(np.array([[3.0, -0.4]])).status.tolist() == [TENTATIVE]
+    assert f.n_landmarks == 0
+    assert f.update(np.array([[3.0, 0.4]])).status.tolist() == [INITIALISED]
