@@ -291,7 +291,8 @@ class SmootherResult:
     """What :func:`smooth` found: ``poses (T+1, 3)`` (x_0 the given start),
     ``landmark_ids (L,)`` and ``landmarks (L, 2)`` in ID order, the final ``cost``
     ½‖r‖², ``optimality`` (‖∇cost‖∞ at the end), ``initial_cost``, ``nfev``,
-    ``success`` and scipy's ``message``."""
+    ``success``, the solver's ``message`` and ``redundancy``, the residuals less the
+    unknowns (2·cost is about χ² with that many dof when the noise models hold)."""
 
     poses: np.ndarray
     landmark_ids: np.ndarray
@@ -302,6 +303,7 @@ class SmootherResult:
     nfev: int
     success: bool
     message: str
+    redundancy: int
 
 
 SOLVERS = ("sparse_lm", "trf")
@@ -422,4 +424,5 @@ def smooth(
         nfev=int(fit.nfev),
         success=bool(fit.success),
         message=str(fit.message),
+        redundancy=problem.n_residuals - problem.n_variables,
     )

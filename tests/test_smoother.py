@@ -117,6 +117,10 @@ def test_noisy_data_beats_dead_reckoning_at_a_minimum() -> None:
     J, r = problem.jacobian(v), problem.residuals(v)
     scale = abs(J).T @ abs(r)
     assert np.max(np.abs(J.T @ r)) < 1e-6 * np.max(scale)
+    assert result.cost == pytest.approx(problem.cost(v), rel=1e-12)
+    no_step = smooth(episode, result.poses, marks, max_nfev=1)
+    assert no_step.cost == no_step.initial_cost == pytest.approx(result.cost, rel=1e-12)
+    assert 0.5 < 2.0 * result.cost / result.redundancy < 2.0  # χ²/dof about 1
     # ...and a minimum: no small step anywhere lowers the cost.
     rng = np.random.default_rng(3)
     for _ in range(20):
