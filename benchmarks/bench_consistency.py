@@ -428,8 +428,9 @@ def print_table(
         f"{np.mean(ls.chi2_per_dof):.3f} (1 when the noise models hold), "
         f"{ls.converged.count(False)} fits not converged"
     )
+    w = max([16, *(len(name) + 2 for name in tallies)])
     header = (
-        f"{'variant':<16}{'in band':>9}{'mean NEES':>11}{'EKF RMSE':>10}{'LS RMSE':>9}{'ratio':>7}"
+        f"{'variant':<{w}}{'in band':>9}{'mean NEES':>11}{'EKF RMSE':>10}{'LS RMSE':>9}{'ratio':>7}"
     )
     print(header)
     print("-" * len(header))
@@ -443,7 +444,7 @@ def print_table(
         best = float(np.mean([ls.rmse[r] for r in tally.runs])) if tally.runs else math.nan
         note = f"  ({tally.failures} runs failed, left out)" if tally.failures else ""
         print(
-            f"{name:<16}{100 * band:>8.1f}%{mean_nees:>11.2f}{ekf:>10.4f}"
+            f"{name:<{w}}{100 * band:>8.1f}%{mean_nees:>11.2f}{ekf:>10.4f}"
             f"{best:>9.4f}{ekf / best:>7.2f}{note}"
         )
 
