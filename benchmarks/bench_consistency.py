@@ -112,7 +112,7 @@ class TourDriver:
         self.best_left = math.inf
         self.since_progress = 0
 
-    def observe(self, pose: np.ndarray, z: np.ndarray, ids: np.ndarray) -> None:
+    def observe(self, z: np.ndarray, ids: np.ndarray) -> None:
         """Mark the landmarks detected from within SEEN_CLOSE."""
         close = ids[(ids >= 0) & (z[:, 0] < SEEN_CLOSE)] if len(ids) else ids
         self.done |= np.isin(self.ids, close)
@@ -205,7 +205,7 @@ def record_episode(env: gym.Env, seed: int, steps: int) -> Recording:
     for _ in range(steps):
         obs, _, terminated, truncated, info = env.step(driver.act(poses[-1]))
         z, ids = unpack_detections(obs)
-        driver.observe(poses[-1], z, ids)
+        driver.observe(z, ids)
         poses.append(np.asarray(info["pose"], dtype=np.float64))
         controls.append(np.asarray(obs["odometry"], dtype=np.float64))
         detections.append((z, ids))
