@@ -35,14 +35,17 @@ out). The table:
   which a filter refuses a call (``FloatingPointError``) is left out of its row and
   counted.
 
-Association quality (correct, wrong, missed, duplicated) needs ``UpdateResult`` to say
-which filter landmark each observation was given to: :func:`association_tally`.
+For the variants that associate, ``correct`` is the share of the detections given to
+the right landmark (or correctly starting one, or clutter left out), and ``wrong``,
+``missed``, ``dup`` the counts over all runs of wrong associations, missed ones and
+duplicated landmarks, judged by ActiveSLAM-v0's own rules
+(:mod:`slam_env.kernels.association_score`); their map RMSE pairs each filter landmark
+with the true landmark that started it.
 """
 
 from __future__ import annotations
 
 import argparse
-import inspect
 import math
 import time
 from collections.abc import Sequence
@@ -58,14 +61,15 @@ from agents.navigation import ControllerParams, GridMap, PathFollower, astar, ne
 from slam_env.config import make_config
 from slam_env.ekf import EKFSLAM
 from slam_env.env import unpack_detections
+from slam_env.kernels.association_score import SCORE_NAMES, score_association
 from slam_env.layouts import LANDMARK_POST_RADIUS
 from slam_env.metrics import map_rmse, nees, nees_band, pose_error, share_in_nees_band
 from slam_env.wrappers import DEFAULT_GATE
 
 ENV_ID = "slam_env/Landmarks-v0"
 
-# A variant: the EKFSLAM keyword arguments that make it (on top of filter_kwargs). A
-# variant whose options this tree's EKFSLAM does not take is skipped with a message.
+# A variant: the EKFSLAM keyword arguments that make it (on top of filter_kwargs).
+# "jcbb2": JCBB with a new landmark started on its second sighting (against clutter).
 VARIANTS: dict[str, dict[str, Any]] = {
     "known/standard": {},
     "known/fej": {"linearization": "fej"},
@@ -73,6 +77,12 @@ VARIANTS: dict[str, dict[str, Any]] = {
     "nn/fej": {"data_association": "nearest_neighbor", "linearization": "fej"},
     "jcbb/standard": {"data_association": "jcbb"},
     "jcbb/fej": {"data_association": "jcbb", "linearization": "fej"},
+    "jcbb2/standard": {"data_association": "jcbb", "new_landmark_sightings": 2},
+    "jcbb2/fej": {
+        "data_association": "jcbb",
+        "new_landmark_sightings": 2,
+        "linearization": "fej",
+    },
 }
 # The variant whose filtered trajectory and map start the smoother.
 BASELINE = "known/standard"
@@ -180,19 +190,9 @@ class Recording:
 
 def env_options(odometry_scale: float, clutter: float) -> dict[str, Any]:
     """The env's options: the default world with the odometry noise scaled, and
-    ``clutter_rate`` when given (refused with a message where the env has no such
-    option)."""
+    ``clutter_rate``."""
     alphas = tuple(odometry_scale * a for a in make_config().odometry.alphas)
-    options: dict[str, Any] = {"alphas": alphas}
-    if clutter > 0.0:
-        try:
-            make_config(clutter_rate=clutter)
-        except TypeError as err:
-            raise SystemExit(
-                f"--clutter: this env has no clutter_rate option yet ({err})"
-            ) from None
-        options["clutter_rate"] = clutter
-    return options
+    return {"alphas": alphas, "clutter_rate": clutter}
 
 
 def record_episode(env: gym.Env, seed: int, steps: int) -> Recording:
@@ -204,7 +204,7 @@ def record_episode(env: gym.Env, seed: int, steps: int) -> Recording:
     controls, detections = [], []
     for _ in range(steps):
         obs, _, terminated, truncated, info = env.step(driver.act(poses[-1]))
-        z, ids = unpack_detections(obs)
+        z, ids = unpack_detections(obs)  # clutter reads ID −1
         driver.observe(z, ids)
         poses.append(np.asarray(info["pose"], dtype=np.float64))
         controls.append(np.asarray(obs["odometry"], dtype=np.float64))
@@ -256,12 +256,6 @@ def filter_kwargs(recording: Recording) -> dict[str, Any]:
     }
 
 
-def unsupported(kwargs: dict[str, Any]) -> list[str]:
-    """The keyword arguments this tree's EKFSLAM does not take."""
-    accepted = inspect.signature(EKFSLAM.__init__).parameters
-    return [name for name in kwargs if name not in accepted]
-
-
 def hides_ids(kwargs: dict[str, Any]) -> bool:
     """Whether the variant associates by itself (it then gets no IDs)."""
     return kwargs.get("data_association", "known") != "known"
@@ -271,39 +265,29 @@ def hides_ids(kwargs: dict[str, Any]) -> bool:
 class FilterRun:
     """One variant on one episode: the pose NEES per step (T,), the filtered poses
     (T+1, 3), the final map RMSE (m), the final map (ID → (2,); filter-owned IDs for
-    an associating variant), and the per-step update results."""
+    an associating variant), and its association scores (:data:`SCORE_NAMES`; zeros
+    for a variant told the IDs)."""
 
     nees: np.ndarray
     poses: np.ndarray
     rmse: float
     landmarks: dict[int, np.ndarray]
-    results: list[Any] = field(default_factory=list)
+    scores: np.ndarray
 
 
-def association_tally(recording: Recording, results: Sequence[Any]) -> dict[int, int] | None:
-    """The true landmark ID of each filter landmark (a majority vote over the
-    observations the filter gave it), or None where ``UpdateResult`` does not say which
-    landmark each observation went to (no ``landmarks`` field).
-
-    ``result.landmarks`` is taken to hold, per observation, the filter landmark it was
-    given to in the identities of ``EKFSLAM.state_to_id`` (−1 for none). To finish
-    with issue 13's filter: count per step and episode the correct, wrong and missed
-    associations and the duplicated landmarks (two filter landmarks voted to one true
-    one) from the same pairs of (filter landmark, true ID).
-    """
-    if not results or not all(hasattr(r, "landmarks") for r in results if r is not None):
-        return None
-    votes: dict[int, dict[int, int]] = {}
-    for (_, true_ids), result in zip(recording.detections, results, strict=True):
-        if result is None:
-            continue
-        for given, true in zip(
-            np.asarray(result.landmarks).tolist(), true_ids.tolist(), strict=True
-        ):
-            if given >= 0 and true >= 0:
-                votes.setdefault(given, {}).setdefault(true, 0)
-                votes[given][true] += 1
-    return {given: max(tally, key=tally.get) for given, tally in votes.items()}
+def score(
+    result: Any, true_ids: np.ndarray, n_before: int, slot_truth: np.ndarray, episode: np.ndarray
+) -> None:
+    """Score one update of an associating variant against the truth with the env's
+    own rules (:func:`slam_env.kernels.association_score.score_association`): the
+    counts go to ``episode`` (1, 4), the truth of each landmark it started to
+    ``slot_truth`` (1, M)."""
+    k = len(true_ids)
+    score_association(
+        result.ids.reshape(1, k), result.status.reshape(1, k), true_ids.reshape(1, k),
+        np.array([k]), np.array([n_before]), slot_truth, np.ones(1, dtype=np.bool_),
+        np.zeros((1, len(SCORE_NAMES)), dtype=np.int64), episode,
+    )  # fmt: skip
 
 
 def run_filter(recording: Recording, kwargs: dict[str, Any]) -> FilterRun:
@@ -315,27 +299,31 @@ def run_filter(recording: Recording, kwargs: dict[str, Any]) -> FilterRun:
     nees_t = np.empty(T)
     poses = np.empty((T + 1, 3))
     poses[0] = f.pose
-    results = []
+    slot_truth = np.full((1, max(f.max_landmarks, 1)), -1, dtype=np.int64)
+    scores = np.zeros((1, len(SCORE_NAMES)), dtype=np.int64)
     for t in range(1, T + 1):
         f.predict(ep.controls[t - 1])
         z, ids = recording.detections[t - 1]
         if not hide:
             z, ids = z[ids >= 0], ids[ids >= 0]
-        results.append(f.update(z, np.full_like(ids, -1) if hide else ids) if len(ids) else None)
+        if len(ids):
+            n_before = f.n_landmarks
+            result = f.update(z, None if hide else ids)
+            if hide:
+                score(result, ids, n_before, slot_truth, scores)
         poses[t] = f.pose
         nees_t[t - 1] = nees(pose_error(f.pose, recording.true_poses[t]), f.pose_cov)
     means = f.landmark_means()
     landmarks = {int(i): means[k] for k, i in enumerate(f.state_to_id.tolist())}
-    owner = association_tally(recording, results) if hide else {i: i for i in landmarks}
-    if owner is None:
-        rmse = math.nan
-    else:
-        mine = [i for i in landmarks if i in owner]
-        rmse = map_rmse(
-            np.array([landmarks[i] for i in mine]).reshape(-1, 2),
-            np.array([recording.truth[owner[i]] for i in mine]).reshape(-1, 2),
-        )
-    return FilterRun(nees_t, poses, rmse, landmarks, results)
+    # Each filter landmark against its true one (for an associating filter: the one
+    # whose detection started it; none for clutter).
+    owner = {i: int(slot_truth[0, i]) for i in landmarks} if hide else {i: i for i in landmarks}
+    mine = [i for i in landmarks if owner[i] >= 0]
+    rmse = map_rmse(
+        np.array([landmarks[i] for i in mine]).reshape(-1, 2),
+        np.array([recording.truth[owner[i]] for i in mine]).reshape(-1, 2),
+    )
+    return FilterRun(nees_t, poses, rmse, landmarks, scores[0])
 
 
 # --------------------------------------------------------------------------- main
@@ -350,6 +338,7 @@ class Tally:
     runs: list[int] = field(default_factory=list)
     nees: list[np.ndarray] = field(default_factory=list)
     rmse: list[float] = field(default_factory=list)
+    scores: np.ndarray = field(default_factory=lambda: np.zeros(len(SCORE_NAMES), np.int64))
     failures: int = 0
 
 
@@ -391,6 +380,7 @@ def evaluate(
                 tallies[name].runs.append(r)
                 tallies[name].nees.append(run.nees)
                 tallies[name].rmse.append(run.rmse)
+                tallies[name].scores += run.scores
         clock["filters"] += time.perf_counter() - start
         start = time.perf_counter()
         base = runs.get(BASELINE)
@@ -430,7 +420,8 @@ def print_table(
     )
     w = max([16, *(len(name) + 2 for name in tallies)])
     header = (
-        f"{'variant':<{w}}{'in band':>9}{'mean NEES':>11}{'EKF RMSE':>10}{'LS RMSE':>9}{'ratio':>7}"
+        f"{'variant':<{w}}{'in band':>9}{'mean NEES':>11}{'EKF RMSE':>10}{'LS RMSE':>9}"
+        f"{'ratio':>7}{'correct':>9}{'wrong':>7}{'missed':>8}{'dup':>5}"
     )
     print(header)
     print("-" * len(header))
@@ -443,9 +434,15 @@ def print_table(
         ekf = float(np.mean(tally.rmse)) if tally.rmse else math.nan
         best = float(np.mean([ls.rmse[r] for r in tally.runs])) if tally.runs else math.nan
         note = f"  ({tally.failures} runs failed, left out)" if tally.failures else ""
+        correct, wrong, missed, dup = tally.scores.tolist()
+        if hides_ids(VARIANTS[name]):
+            share = correct / max(correct + wrong + missed, 1)
+            association = f"{100 * share:>8.2f}%{wrong:>7}{missed:>8}{dup:>5}"
+        else:
+            association = f"{'-':>9}{'-':>7}{'-':>8}{'-':>5}"
         print(
             f"{name:<{w}}{100 * band:>8.1f}%{mean_nees:>11.2f}{ekf:>10.4f}"
-            f"{best:>9.4f}{ekf / best:>7.2f}{note}"
+            f"{best:>9.4f}{ekf / best:>7.2f}{association}{note}"
         )
 
 
@@ -459,8 +456,7 @@ def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
         "--variants",
         nargs="+",
         default=list(VARIANTS),
-        help=f"any of {', '.join(VARIANTS)} (default all; those this tree's EKFSLAM "
-        "cannot make are skipped with a message)",
+        help=f"any of {', '.join(VARIANTS)} (default all)",
     )
     parser.add_argument("--clutter", type=float, default=0.0, help="the env's clutter_rate")
     args = parser.parse_args(argv)
@@ -474,14 +470,7 @@ def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
 
 def main(argv: Sequence[str] | None = None) -> None:
     args = parse_args(argv)
-    variants = {}
-    for name in args.variants:
-        missing = unsupported(VARIANTS[name])
-        if missing:
-            print(f"skipped {name}: EKFSLAM on this tree takes no {', '.join(missing)}")
-        else:
-            variants[name] = VARIANTS[name]
-    print_table(args, *evaluate(args, variants))
+    print_table(args, *evaluate(args, {name: VARIANTS[name] for name in args.variants}))
 
 
 if __name__ == "__main__":
