@@ -186,6 +186,7 @@ def active_config(
         filter_measurement_cov=options.filter_measurement_cov,
         reward_weights=vars(options.weights),
         num_envs=num_envs,
+        association=options.data_association != "known",
     )
     options.check_against(config)
     return config
