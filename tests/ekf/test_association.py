@@ -207,10 +207,10 @@ def test_the_scores_of_a_hand_made_update():
     """One world, map before the update: slot 0 is true landmark 5, slot 1 true 7.
     Observations: of 5 given to slot 0 (correct); of 7 given to slot 0 (wrong); clutter
     discarded (correct); of 9 discarded (missed); of 7 starting slot 2 (missed: a
-    duplicate of slot 1); of 11 starting slot 3 (correct); clutter starting slot 4
+    duplicate of slot 1); of 0 starting slot 3 (correct); clutter starting slot 4
     (wrong); of 5 rejected by the gate after being given to slot 0 (correct)."""
     M, D = 6, 8
-    truth = np.array([[5, 7, -1, 9, 7, 11, -1, 5]])
+    truth = np.array([[5, 7, -1, 9, 7, 0, -1, 5]])
     assigned = np.array([[0, 0, -1, -1, 2, 3, 4, 0]])
     status = np.array(
         [[ekf.CORRECTED, ekf.CORRECTED, DISCARDED, DISCARDED, INITIALISED, INITIALISED,
@@ -231,7 +231,7 @@ def test_the_scores_of_a_hand_made_update():
         "duplicated": 1,
     }
     assert episode[0].tolist() == [14, 3, 4, 1]
-    assert slot_truth[0].tolist() == [5, 7, 7, 11, -1, -1]
+    assert slot_truth[0].tolist() == [5, 7, 7, 0, -1, -1]
 
 
 def test_a_second_sighting_starts_a_tentative_landmark_within_the_window():
