@@ -234,6 +234,23 @@ def test_the_scores_of_a_hand_made_update():
     assert slot_truth[0].tolist() == [5, 7, 7, 0, -1, -1]
 
 
+def test_the_scores_of_landmark_zero_and_of_clutter_given_to_clutter():
+    """Slot 0 is true landmark 0, slot 1 was started from clutter: an observation of 0
+    given to slot 0 is correct; clutter given to slot 1 is wrong (clutter is no
+    landmark, whatever it is given to); a tentative sighting of 0 is missed (0 is
+    mapped), one of clutter correct."""
+    truth = np.array([[0, -1, 0, -1]])
+    assigned = np.array([[0, 1, -2, -2]])
+    status = np.array([[ekf.CORRECTED, ekf.CORRECTED, TENTATIVE, TENTATIVE]], dtype=np.int8)
+    slot_truth = np.array([[0, -1, -1]])
+    step = np.zeros((1, 4), dtype=np.int64)
+    score.score_association(
+        assigned, status, truth, np.array([4]), np.array([2]), slot_truth,
+        np.ones(1, dtype=np.bool_), step, np.zeros((1, 4), dtype=np.int64),
+    )  # fmt: skip
+    assert step[0].tolist() == [2, 1, 1, 0]
+
+
 def test_a_second_sighting_starts_a_tentative_landmark_within_the_window():
     """With ``new_landmark_sightings=2`` the first sighting is held (ID −2); a second,
     consistent one within CONFIRM_WINDOW updates starts the landmark; a sighting that
