@@ -184,9 +184,11 @@ def memory_parts(
 
         dim = 3 + 2 * world.n_landmark_slots
         parts["belief"] = BELIEF_DENSE_COPIES[belief] * 8 * dim * dim
-        parts["filter_workspace"] = 8 * update_workspace_size(dim, rows)
+        # The filter's workspaces grow with the detections a step has.
+        seen = detections_in_view(config, world)
+        parts["filter_workspace"] = 8 * update_workspace_size(dim, seen)
         if association:
-            floats, ints = association_workspace_sizes(world.n_landmark_slots, rows)
+            floats, ints = association_workspace_sizes(world.n_landmark_slots, seen)
             parts["association"] = 8 * (floats + ints)
     if coverage:
         offsets, footprint, padded = _coverage_geometry(config, world)
@@ -475,8 +477,8 @@ _MEMORY_OPTIONS = {
     "detections": "max_detections²",
     "landmarks": "n_landmarks, or a layout's landmarks and IDs",
     "belief": "(3 + 2·landmark slots)² for each observation",
-    "filter_workspace": "max_detections² and landmark slots × max_detections",
-    "association": "landmark slots × max_detections, or data_association='known'",
+    "filter_workspace": "the detections in view², and landmark slots × detections",
+    "association": "landmark slots × detections in view, or data_association='known'",
     "coverage": "width, height and max_range, or coverage=False",
     "coverage_tables": "width, height and max_range, or coverage=False",
 }

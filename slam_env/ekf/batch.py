@@ -53,18 +53,29 @@ class FilterBatch:
         self.status = np.zeros((b, d), dtype=np.int8)
         self.nis = np.zeros((b, d))
         self.error = np.zeros(b, dtype=np.int64)
-        self._work = np.empty(ekf.update_workspace_size(dmax, d))
         # Where the filters associate: the landmark each observation is given to (the
-        # IDs the update uses), each one's smallest D², the association's workspaces.
+        # IDs the update uses), each one's smallest D², the association's gates.
         self.associates = template.associates
         self.assigned = np.full((b, d), -1, dtype=np.int64)
         self.nearest = np.full((b, d), np.inf)
         if self.associates:
-            floats, ints = association.association_workspace_sizes(m, d)
-            self._assoc_work = (np.empty(floats), np.empty(ints, dtype=np.int64))
             self._joint_gates = joint_gates(template.association_gates[0], d)
             self._held = np.empty_like(self.tentative)
+        # The workspaces grow with the most observations an update has had (a step
+        # sees far fewer landmarks than the padded array has rows).
+        self._room = -1
+        self._grow_workspaces(min(d, 8))
         self._views: dict[int, EKFSLAM] = {}
+
+    def _grow_workspaces(self, max_obs: int) -> None:
+        if max_obs <= self._room:
+            return
+        self._room = max_obs
+        self._work = np.empty(ekf.update_workspace_size(self.x.shape[1], max_obs))
+        if self.associates:
+            sizes = association.association_workspace_sizes(self.template.max_landmarks, max_obs)
+            floats, ints = sizes
+            self._assoc_work = (np.empty(floats), np.empty(ints, dtype=np.int64))
 
     @property
     def storage(self) -> tuple[np.ndarray, ...]:
@@ -99,13 +110,16 @@ class FilterBatch:
         :attr:`z` of landmarks :attr:`ids` (where the filters associate, of the
         landmarks they choose: :attr:`assigned`, each one's smallest D² in
         :attr:`nearest`); per observation :attr:`status` and :attr:`nis`."""
+        self._grow_workspaces(min(int(self.counts.max(initial=0)), self.z.shape[1]))
         ids = self.ids
         if self.associates:
-            association.associate(
+            associated = association.associate(
                 self.x, self.P, self.n, self.params, self.modes, self._joint_gates, self.z,
                 self.counts, mask, self.assigned, self.nearest, self.tentative, self._held,
                 *self._assoc_work,
             )  # fmt: skip
+            if not associated:
+                raise RuntimeError("the association's workspace is too small")  # a bug here
             ids = self.assigned
         ekf.update(
             self.x, self.P, self.n, self.id_to_slot, self.slot_to_id, self.n_rejected,

@@ -745,11 +745,13 @@ class EKFSLAM:
         if self.associates:
             if not np.isfinite(zb).all():
                 raise checks.bad_observations(zb[0], np.zeros(k, dtype=np.int64), self._N)
-            association.associate(
+            associated = association.associate(
                 self._xb, self._Pb, self._nb, self._params, self._modes, self._joint_gates,
                 zb, count, self._mask, idb, nearest, self._tentativeb, self._held,
                 *self._assoc_work,
             )  # fmt: skip
+            if not associated:
+                raise RuntimeError("the association's workspace is too small")  # a bug here
         error = self._error
         ekf.update(*self._update_state, zb, idb, count, self._mask, status, nis, error, self._work)
         if error[0]:

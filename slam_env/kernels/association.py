@@ -241,13 +241,14 @@ def _jcbb(
     iwork: np.ndarray,
     o: int,
     io: int,
+    D: int,
 ) -> None:
     """Joint Compatibility Branch and Bound over observations ``0..k-1`` with the
     candidates ``cand[j, :n_cand[j]]`` (in increasing D²); the best hypothesis into
     ``assigned`` (landmark or -1). Iterative depth-first search: level j tries each
     candidate of observation j, then none; L and y (S_H's factor and L⁻¹ν_H) grow by
-    two rows per pairing and are overwritten on backtracking."""
-    D = z.shape[0]
+    two rows per pairing and are overwritten on backtracking. The workspaces from
+    ``o``/``io`` have room for D ≥ k observations."""
     R = 2 * D
     L = fwork[o : o + R * R].reshape((R, R))
     o += R * R
@@ -406,7 +407,7 @@ def associate(
     held: np.ndarray,
     fwork: np.ndarray,
     iwork: np.ndarray,
-) -> None:
+) -> bool:
     """Associate the first ``counts[b]`` observations ``z[b]`` ((B, D, 2)) of every
     world with ``mask[b]`` (see the module's docstring) into ``assigned[b]`` ((B, D)
     int64, -1 past the count and in the worlds not touched); ``d2_min[b, j]`` gets the
@@ -414,12 +415,19 @@ def associate(
     ``joint_gates[m]``: the joint χ² threshold for m pairings (length ≥ D + 1).
     ``tentative`` (B, T, 6): each world's tentative sightings, not written; the
     worlds associated get them after this update in ``held`` (same shape), for the
-    caller to keep once the update has succeeded. The
-    workspaces ``fwork``/``iwork`` need :func:`association_workspace_sizes`
-    ``(M, D)`` entries (M = ``x.shape[1] // 2 - 1``, the landmark slots)."""
+    caller to keep once the update has succeeded. The workspaces ``fwork``/``iwork``
+    need :func:`association_workspace_sizes` ``(M, K)`` entries (M the landmark slots,
+    K the largest count of the worlds associated); False, and nothing done, where they
+    are smaller."""
     B = x.shape[0]
-    D = z.shape[1]
     M = (x.shape[1] - 3) // 2
+    D = 0
+    for b in range(B):
+        if mask[b]:
+            D = max(D, min(max(counts[b], 0), z.shape[1]))
+    floats, ints = association_workspace_sizes(M, D)
+    if fwork.shape[0] < floats or iwork.shape[0] < ints:
+        return False
     # The workspaces: D² and the candidates of each observation, one pairing's scratch,
     # the landmarks paired so far, then JCBB's own (see _jcbb).
     table = D * M
@@ -431,7 +439,7 @@ def associate(
     o = table + _PAIR_WIDTH
     io = table + D + M
     for b in range(B):
-        for j in range(D):
+        for j in range(z.shape[1]):
             assigned[b, j] = -1
             d2_min[b, j] = math.inf
         if not mask[b]:
@@ -490,6 +498,7 @@ def associate(
                 iwork,
                 o,
                 io,
+                D,
             )
         else:
             _nearest_neighbour(d2, k, nb, gate, out, used)
@@ -515,3 +524,4 @@ def associate(
                 continue
             out[j] = slot
             slot += 1
+    return True

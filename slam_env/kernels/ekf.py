@@ -774,12 +774,18 @@ def update(
     count, for worlds not touched and for a failed world); ``nis[b, j]`` ((B, D)
     float64) νᵀS⁻¹ν of each correction or rejection (NaN otherwise); ``error[b]`` the
     error code. ``work``: a float64 scratch array of at least
-    :func:`update_workspace_size` ``(dmax, D)`` entries, shared by the worlds (they are
-    updated one after the other)."""
+    :func:`update_workspace_size` ``(dmax, K)`` entries, K the largest count of the
+    worlds updated (at most D: a workspace grows with the detections a step has, not
+    with the rows of the padded array), shared by the worlds (they are updated one after
+    the other)."""
     B = x.shape[0]
     dmax = x.shape[1]
     D = z.shape[1]
-    room = work.shape[0] >= update_workspace_size(dmax, D)
+    K = 0
+    for b in range(B):
+        if mask[b]:
+            K = max(K, min(max(counts[b], 0), D))
+    room = work.shape[0] >= update_workspace_size(dmax, K)
     for b in range(B):
         for j in range(D):
             status[b, j] = UNUSED
@@ -790,7 +796,7 @@ def update(
     # The workspace: the working mean, the factor rows U, the rows C (Cᵀ = H P, then
     # the new landmarks' cross-covariances), the corrected pose rows PR, the small
     # matrices, ν and G ν, and the per-observation scratch.
-    R = 2 * D
+    R = 2 * K
     o = 0
     xw = work[o : o + dmax]
     o += dmax
@@ -804,7 +810,7 @@ def update(
     o += N_SMALL * R * R
     vec = work[o : o + 2 * R].reshape((2, R))
     o += 2 * R
-    obs = work[o : o + 13 * D].reshape((D, 13))
+    obs = work[o : o + 13 * K].reshape((K, 13))
     for b in range(B):
         if not mask[b]:
             continue

@@ -281,17 +281,23 @@ def test_a_non_finite_belief_is_refused():
 
 
 def test_too_small_a_workspace_is_refused_for_the_worlds_asked_for():
+    """The workspace must hold the largest count of the worlds asked for (3 here), not
+    the rows of the padded arrays (5)."""
     batch = _two_worlds()
     batch.work = np.empty(ekf.update_workspace_size(DMAX, 3) - 1)
     before = [batch.snapshot(b) for b in range(2)]
-    z = np.zeros((2, 3, 2))
-    status, _, error = batch.update(z, np.zeros((2, 3), dtype=np.int64), np.array([1, 1]),
-                                    np.array([True, False]))  # fmt: skip
+    z = np.ones((2, 5, 2))
+    ids = np.tile(np.arange(5), (2, 1))
+    status, _, error = batch.update(z, ids, np.array([3, 5]), np.array([True, False]))
     assert error.tolist() == [ekf.SMALL_WORKSPACE, ekf.OK]
     assert (status == ekf.UNUSED).all()
     for b in range(2):
         for mine, then in zip(batch.snapshot(b), before[b], strict=True):
             np.testing.assert_array_equal(mine, then)
+    batch.work = np.empty(ekf.update_workspace_size(DMAX, 3))
+    status, _, error = batch.update(z, ids, np.array([3, 5]), np.array([True, False]))
+    assert error.tolist() == [ekf.OK, ekf.OK]
+    assert (status[0, :3] != ekf.UNUSED).all() and (status[0, 3:] == ekf.UNUSED).all()
 
 
 def test_predict_refuses_a_non_finite_control_and_an_overflow_per_world():
