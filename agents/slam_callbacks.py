@@ -70,6 +70,8 @@ def vector_columns(
     ):
         return None
     required = [key for key in keys if key not in OPTIONAL_STEP_KEYS]
+    if len(vector[f"_{required[0]}"]) != len(infos):  # the rows of several vector envs
+        return None
     columns = [_column(vector, key, len(infos)) for key in keys]
     if not finished:
         return columns, [vector[f"_{key}"] for key in required]
