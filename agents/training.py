@@ -339,12 +339,18 @@ def _check_env(cfg: TrainConfig) -> str:
         space = env.observation_space
     finally:
         env.close()
-    if cfg.worlds is not None and cfg.env_options.get("observation") != "local":
+    local = cfg.env_options.get("observation") == "local"
+    if cfg.worlds is not None and not local:
         raise ConfigError(
             "training across worlds needs env_options.observation: local (the one "
             "observation whose size does not depend on the world)"
         )
-    return "MultiInputPolicy" if isinstance(space, gym.spaces.Dict) else "MlpPolicy"
+    if isinstance(space, gym.spaces.Dict) and not local:
+        raise ConfigError(
+            "PPO trains on the flat egocentric belief or the local observation, not on "
+            "the full covariance: set env_options.observation to egocentric or local"
+        )
+    return "MultiInputPolicy" if local else "MlpPolicy"
 
 
 def _make_callbacks(cfg: TrainConfig, out: Path, eval_env: Any) -> list[Any]:

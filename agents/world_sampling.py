@@ -176,6 +176,7 @@ class WorldSamplingVecEnv(VecEnv):
         self.lengths = np.zeros(groups, dtype=np.int64)  # each group's episode length
         self.elapsed = np.zeros(groups, dtype=np.int64)  # and its steps so far
         drawn = [self._draw(0)]
+        self._envs = [drawn[0][0]]  # what VecEnv's set-up reads (render_mode)
         super().__init__(n_envs, drawn[0][0].observation_space, drawn[0][0].action_space)
         drawn += [self._draw(g) for g in range(1, groups)]
         self._envs = [env for env, _ in drawn]
@@ -286,8 +287,11 @@ class WorldSamplingVecEnv(VecEnv):
         return [frame for env in self._envs for frame in env.get_images()]
 
     def get_attr(self, attr_name: str, indices: VecEnvIndices = None) -> list[Any]:
-        k = self.group_size
-        return [getattr(self._envs[i // k].venv, attr_name) for i in self._get_indices(indices)]
+        last = len(self._envs) - 1
+        return [
+            getattr(self._envs[min(i // self.group_size, last)].venv, attr_name)
+            for i in self._get_indices(indices)
+        ]
 
     def set_attr(self, attr_name: str, value: Any, indices: VecEnvIndices = None) -> None:
         raise AttributeError(f"cannot set {attr_name!r}: the sub-envs' worlds are drawn")
