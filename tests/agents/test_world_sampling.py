@@ -7,6 +7,8 @@ import numpy as np
 import pytest
 
 from agents.ppo import load_ppo_agent
+from agents.registry import make_agent, make_env
+from agents.suite import suite_settings
 from agents.training import ConfigError, config_from_dict, train
 from agents.world_sampling import WorldDistribution, WorldSamplingVecEnv, episode_length
 from slam_env.local_observation import local_space
@@ -130,3 +132,11 @@ def test_training_smoke_run_with_world_sampling(tmp_path):
     assert set(local_space().spaces) <= set(agent.observation_space.spaces)
     assert agent.observation_space == local_space_with_extras()
     assert (tmp_path / "training_summary.json").is_file()
+    # The policy loads and acts on every setting of the default suite.
+    for setting in suite_settings("default"):
+        env = make_env({**setting.env_options, "observation": "local"}, 3)
+        agent = make_agent(f"ppo:{path}", env)
+        obs, _ = env.reset(seed=0)
+        for _ in range(3):
+            obs, *_ = env.step(agent.predict(obs)[0])
+        env.close()
