@@ -203,8 +203,9 @@ def test_the_memory_figure_scales_with_the_sub_envs():
     [
         {"observation": "full", "coverage": False, "layout": _layout([0, 5, 399], 30.0, 30.0)},
         {"observation": "egocentric", "width": 60.0, "height": 60.0, "max_range": 20.0},
+        {"observation": "local", "width": 60.0, "height": 60.0, "max_range": 20.0},
     ],
-    ids=["dense-belief", "coverage-grid"],
+    ids=["dense-belief", "coverage-grid", "local-grids"],
 )
 def test_the_memory_figure_bounds_what_is_allocated(options):
     """tracemalloc's peak while building and stepping the env stays below the budget's
