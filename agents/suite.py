@@ -167,6 +167,7 @@ def run_suite(
     parse_agent_specs(",".join(specs))
     settings = suite_settings(suite)
     observations = {spec: agent_observation(spec) for spec in specs}  # checks PPO files
+    _check_fits(specs, settings, observations)
     from tqdm.auto import tqdm
 
     total = sum(s.episodes for s in settings) * len(specs)
@@ -220,6 +221,28 @@ def run_suite(
     if verbose:
         print(markdown)
     return SuiteResult(rows, episode_rows, files, markdown)
+
+
+def _check_fits(
+    specs: Sequence[str], settings: Sequence[SuiteSetting], observations: dict[str, str | None]
+) -> None:
+    """``ValueError`` naming the agent and the setting, before anything runs, where a
+    policy's spaces do not fit a setting's env (an egocentric policy is tied to its
+    landmark count)."""
+    for spec in specs:
+        if not (spec == "ppo" or spec.startswith("ppo:")) or observations[spec] == "local":
+            continue
+        for setting in settings:
+            env = make_env(setting.env_options, setting.steps)
+            try:
+                make_agent(spec, env)
+            except ValueError as exc:
+                raise ValueError(
+                    f"agent {spec!r} cannot run the suite's setting {setting.name!r} "
+                    f"({exc}); a policy trained on observation='local' runs on every setting"
+                ) from None
+            finally:
+                env.close()
 
 
 def _aggregate(setting: SuiteSetting, label: str, episodes: list[dict[str, float]]) -> dict:

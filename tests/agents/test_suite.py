@@ -85,3 +85,12 @@ def test_cli_suite_refuses_bad_input(tmp_path, capsys):
         main(["evaluate", "--agents", "random", "--suite", "smoke", "--max-steps", "5",
               "--out", str(tmp_path)])  # fmt: skip
     assert "--suite fixes" in capsys.readouterr().err
+
+
+def test_a_policy_tied_to_its_landmark_count_is_refused_before_anything_runs(tmp_path):
+    from agents.suite import run_suite
+
+    # The shipped egocentric policy has 20 landmark slots; the smoke suite's rooms 6.
+    with pytest.raises(ValueError, match="setting 'rooms'"):
+        run_suite(["random", "ppo"], "smoke", tmp_path, progress=False, verbose=False)
+    assert not (tmp_path / "suite.csv").exists()
