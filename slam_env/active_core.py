@@ -31,6 +31,7 @@ from slam_env.kernels.divergence import count_rejections, diverged
 from slam_env.kernels.observe import filter_inputs
 from slam_env.kernels.reward import active_slam_reward
 from slam_env.layouts import Layout
+from slam_env.local_observation import LocalEncoding
 from slam_env.overlay import BeliefOverlay
 from slam_env.raw_core import BatchCore, RawCore
 from slam_env.wrappers import DIVERGENCE_REJECTIONS, PASSTHROUGH_KEYS, REWARD_TERMS
@@ -89,9 +90,22 @@ class ActiveCore(BatchCore):
         self.coverage: CoverageGrid | None = None
         if options.coverage:
             self.coverage = CoverageGrid.for_sensor(width, height, sensor, worlds=b)
+        self._local: dict[str, np.ndarray] | None = None
         if options.observation == "full":
-            self._encoding: FullEncoding | EgocentricEncoding = FullEncoding(self._geometry)
+            self._encoding: FullEncoding | EgocentricEncoding | LocalEncoding = FullEncoding(
+                self._geometry
+            )
             self._full = self._encoding.empty(b)
+        elif options.observation == "local":
+            assert self.coverage is not None  # ActiveSLAMOptions requires it
+            self._encoding = LocalEncoding(
+                self._geometry,
+                raw.n_landmarks,
+                self.coverage,
+                raw.beam_angles,
+                sensor.scan_range,
+            )
+            self._local = self._encoding.empty(b)
         else:
             self._encoding = EgocentricEncoding(self._geometry)
         self.observation_space = self._observation_space(raw.observation_space)
@@ -174,6 +188,8 @@ class ActiveCore(BatchCore):
             self.in_a_row[b] = 0
             if self.coverage is not None:
                 self.coverage.reset(b)
+            if self._local is not None:
+                self._encoding.reset(b)
             touched[b] = True
         out = raw.out
         filter_inputs(
@@ -239,6 +255,8 @@ class ActiveCore(BatchCore):
             self.swept_fraction[:] = self.coverage.swept_fractions()
         if self.egocentric is not None:
             self._encoding.encode_batch(belief, tail, self.egocentric, self.clipped, active)
+        elif self._local is not None:
+            self._encoding.encode_batch(belief, raw.scan, self._local, self.clipped, active)
         else:
             self._encoding.encode_batch(belief, self._full, active)
             np.copyto(self.clipped, self._full.clipped)
@@ -258,8 +276,14 @@ class ActiveCore(BatchCore):
         return self._full_observation(slice(None), None)
 
     def _full_observation(self, rows: slice, pick: int | None) -> dict[str, np.ndarray]:
-        full, raw = self._full, self.raw
-        obs = {"mean": full.mean[rows], "cov": full.cov[rows], "known": full.known[rows]}
+        """The Dict observation (the full or the local belief, then the raw proximity
+        readings and the coverage) of the sub-envs ``rows``; ``pick`` one of them."""
+        raw = self.raw
+        if self._local is not None:
+            obs = {key: value[rows] for key, value in self._local.items()}
+        else:
+            full = self._full
+            obs = {"mean": full.mean[rows], "cov": full.cov[rows], "known": full.known[rows]}
         for key in self._passthrough:
             obs[key] = (raw.scan if key == "scan" else raw.out.bumper)[rows]
         if self.coverage is not None:

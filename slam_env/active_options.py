@@ -20,6 +20,9 @@ DEFAULT_SCAN_BEAMS = 16
 # landmark map does not hold, and feel when one blocks it (a corner can hide between
 # two beams). They apply unless the options set them, flat or nested.
 ACTIVE_SLAM_DEFAULTS = {"scan_beams": DEFAULT_SCAN_BEAMS, "bumper": True}
+# The observations of ActiveSLAM-v0: the belief wrapper's, and "local", which does not
+# depend on the landmark count (slam_env.local_observation; it needs the coverage).
+ACTIVE_OBSERVATION_MODES = (*OBSERVATION_MODES, "local")
 
 
 def _number(name: str, value: Any) -> float:
@@ -84,9 +87,9 @@ class ActiveSLAMOptions:
 
     def __post_init__(self) -> None:
         values = {f.name: plain(getattr(self, f.name)) for f in fields(self) if f.init}
-        if values["observation"] not in OBSERVATION_MODES:
+        if values["observation"] not in ACTIVE_OBSERVATION_MODES:
             raise ValueError(
-                f"observation must be one of {OBSERVATION_MODES}, got {self.observation!r}"
+                f"observation must be one of {ACTIVE_OBSERVATION_MODES}, got {self.observation!r}"
             )
         if values["correction"] not in CORRECTION_MODES:
             raise ValueError(
@@ -113,6 +116,10 @@ class ActiveSLAMOptions:
         )
         if not isinstance(values["coverage"], bool):
             raise TypeError(f"coverage must be a bool, got {self.coverage!r}")
+        if values["observation"] == "local" and not values["coverage"]:
+            raise ValueError(
+                "observation='local' needs coverage=True: its local map shows the swept area"
+            )
         for name, value in values.items():
             object.__setattr__(self, name, value)
         object.__setattr__(self, "weights", self._weights(self.reward_weights))

@@ -40,7 +40,9 @@ class ActiveSLAMEnv(CoreEnv):
     :class:`slam_env.wrappers.ActiveSLAMReward` (terms in ``info["reward_terms"]``).
 
     ## Arguments
-    ``observation`` (``"egocentric"`` | ``"full"``), ``correction`` (``"sequential"`` |
+    ``observation`` (``"egocentric"`` | ``"full"`` | ``"local"``: the one whose size does
+    not depend on the world, see :mod:`slam_env.local_observation`; it needs the
+    coverage), ``correction`` (``"sequential"`` |
     ``"batch"``), ``gate`` (χ² threshold or ``None``), ``filter_alphas``,
     ``filter_control_noise``, ``filter_measurement_cov`` (a mismatched filter; default:
     the env's true noise), ``data_association`` (``"known"``: the sensor's IDs;
@@ -56,8 +58,8 @@ class ActiveSLAMEnv(CoreEnv):
     ``True`` here: a policy needs to see obstacles, which the landmark map does not
     hold, and to feel when one blocks it (a corner can hide between two beams). The
     egocentric observation is the belief features, then the scan and the bumper, then
-    the coverage features; the full one holds them as the ``scan``, ``bumper`` and
-    ``coverage`` keys. These defaults hold whichever form the world's options take
+    the coverage features; the full and the local ones hold them as the ``scan``,
+    ``bumper`` and ``coverage`` keys. These defaults hold whichever form the world's options take
     (``fov=2.5`` or ``sensor={"fov": 2.5}``); a whole ``config`` is taken as it is.
     Options are checked (types, numpy scalars, the resource budget of
     :mod:`slam_env.budget`) before anything is built.

@@ -60,7 +60,7 @@ MAX_MEMORY_BYTES = 2 * 2**30
 # Dense (3 + 2·slots)² float64 arrays alive at once: the filter's Σ and scratch, the
 # entropy's floor and shifted copy; the full observation adds its padded copy, the
 # clipped ones and its space's bounds (measured 3.2 and 7.9).
-BELIEF_DENSE_COPIES = {"egocentric": 4, "full": 9}
+BELIEF_DENSE_COPIES = {"egocentric": 4, "full": 9, "local": 4}
 # The coverage grid: per offset of its (2·nx − 1)(2·ny − 1) window, the region codes and
 # their temporaries over 72 heading bins (measured ~1,900 B); per offset in the sensor's
 # footprint, the footprint tables and temporaries; one byte per cell of the padded grid.
@@ -165,11 +165,12 @@ def memory_parts(
     association: bool = False,
 ) -> dict[str, int]:
     """The bytes one env allocates for what its options scale, by part: ``detections``
-    (the raw env's mask table), ``landmarks``, ``belief`` (``"egocentric"`` or
-    ``"full"``; ``None`` for the raw env) with ``filter_workspace`` (the update's
+    (the raw env's mask table), ``landmarks``, ``belief`` (an observation mode of
+    ``ActiveSLAM-v0``; ``None`` for the raw env) with ``filter_workspace`` (the update's
     scratch, which grows with the square of the detections), ``association`` (the data
-    association's workspaces, where the filter associates), and ``coverage_tables`` and ``coverage``
-    (the coverage grid's tables, shared by a vector env's sub-envs, and its cells)."""
+    association's workspaces, where the filter associates), and ``coverage_tables`` and
+    ``coverage`` (the coverage grid's tables, shared by a vector env's sub-envs, and its
+    cells)."""
     rows = world.max_detections
     parts = {
         "detections": 4 * (rows + 1) * rows,
@@ -195,7 +196,8 @@ def memory_parts(
         parts["coverage_tables"] = (
             COVERAGE_BYTES_PER_OFFSET * offsets + COVERAGE_BYTES_PER_FOOTPRINT_OFFSET * footprint
         )
-        parts["coverage"] = padded
+        # The local observation keeps a grid of scan-hit obstacles beside the swept one.
+        parts["coverage"] = padded * (2 if belief == "local" else 1)
     return parts
 
 

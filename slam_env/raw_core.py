@@ -335,6 +335,11 @@ class RawCore(BatchCore):
         )
 
     @property
+    def beam_angles(self) -> np.ndarray:
+        """(beams,) rad: the proximity beams' directions in the robot frame."""
+        return self._beam_angles
+
+    @property
     def rewards(self) -> np.ndarray:
         """(B,) the rewards of the last step (0 for a reset)."""
         return self.out.rewards

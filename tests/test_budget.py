@@ -213,8 +213,9 @@ def test_the_memory_figure_scales_with_the_sub_envs():
             "max_detections": 400,
             "data_association": "jcbb",
         },
+        {"observation": "local", "width": 60.0, "height": 60.0, "max_range": 20.0},
     ],
-    ids=["dense-belief", "coverage-grid", "association"],
+    ids=["dense-belief", "coverage-grid", "association", "local-grids"],
 )
 def test_the_memory_figure_bounds_what_is_allocated(options):
     """tracemalloc's peak while building and stepping the env stays below the budget's
