@@ -111,7 +111,10 @@ def _linearise(
     pair[_NU] = nu0
     pair[_NU + 1] = nu1
     pair[_ROW] = s
-    return math.isfinite(nu0 + nu1 + h[0] + h[1] + h[2] + h[3] + h[4] + h[5] + h[6] + h[7])
+    total = nu0 + nu1
+    for t in range(10):
+        total += h[t]
+    return math.isfinite(total)
 
 
 @kernel

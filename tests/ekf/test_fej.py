@@ -18,6 +18,7 @@ from slam_env.ekf.models import (
     velocity_control_cov,
 )
 from slam_env.geometry import wrap_angle
+from tests.ekf.test_filter_reference import COMBOS, run_against_dense
 
 ALPHAS = (0.02, 0.01, 0.02, 0.01)
 CONTROL_NOISE = (0.02, 0.01, 0.01, 0.05)
@@ -116,6 +117,19 @@ class DenseFEJ:
             self.mu = np.concatenate([self.mu, m])
             self.first = np.concatenate([self.first, m])
             self.slot[lid] = (d - 3) // 2
+
+
+@pytest.mark.parametrize(("motion", "measurement", "correction"), COMBOS)
+def test_the_standard_linearization_is_the_seeds_filter_to_1e_12(
+    dense_reference, motion, measurement, correction
+):
+    """``linearization="standard"`` is the filter of the seeds, unchanged by FEJ's
+    bookkeeping: the dense textbook filter's mean and covariance to 1e-12."""
+    counts = run_against_dense(
+        dense_reference, motion, measurement, correction, seed=0, atol=1e-12,
+        linearization="standard",
+    )  # fmt: skip
+    assert counts["corrected"] > 50 and counts["initialised"] == 12
 
 
 @pytest.mark.parametrize("motion", ["odometry", "velocity"])

@@ -46,9 +46,12 @@ def random_control(rng, motion):
     return np.array([rng.uniform(-0.2, 0.8), rng.uniform(-0.5, 0.5)])
 
 
-def run_against_dense(dense_reference, motion, measurement, correction, seed, atol=1e-9):
-    """Drive EKFSLAM and the dense filter through the same random sequence, checking
-    they agree after every call; returns how often each status occurred."""
+def run_against_dense(
+    dense_reference, motion, measurement, correction, seed, atol=1e-9, **filter_options
+):
+    """Drive EKFSLAM (with ``filter_options``) and the dense filter through the same
+    random sequence, checking they agree after every call; returns how often each
+    status occurred."""
     rng = np.random.default_rng(seed)
     n_landmarks, steps = 12, 60
     truth = rng.uniform(-6, 6, size=(n_landmarks, 2))
@@ -66,7 +69,11 @@ def run_against_dense(dense_reference, motion, measurement, correction, seed, at
         correction=correction,
     )
     f = EKFSLAM(
-        motion_model=motion, measurement_model=measurement, max_landmarks=n_landmarks, **kwargs
+        motion_model=motion,
+        measurement_model=measurement,
+        max_landmarks=n_landmarks,
+        **kwargs,
+        **filter_options,
     )
     ref = dense_reference.DenseEKFSLAM(motion, measurement, **kwargs)
     true_pose = pose0.copy()
