@@ -5,6 +5,7 @@ against the truth (:mod:`slam_env.kernels.association_score`)."""
 
 from __future__ import annotations
 
+import itertools
 import math
 import pickle
 
@@ -278,3 +279,164 @@ def test_an_inconsistent_second_sighting_does_not_confirm():
     assert f.update(np.array([[3.0, -0.4]])).status.tolist() == [TENTATIVE]
     assert f.n_landmarks == 0
     assert f.update(np.array([[3.0, 0.4]])).status.tolist() == [INITIALISED]
+
+
+# --------------------------------------------------------------------------- references
+Q_CORRELATED = np.array([[0.04**2, 1e-4], [1e-4, math.radians(1.5) ** 2]])
+
+
+def numeric_h_jacobian(pose: np.ndarray, m: np.ndarray) -> np.ndarray:
+    """∂h/∂(pose, m) (2×5) by central differences, bearing differences wrapped."""
+    h = MEASUREMENT_MODELS["range_bearing"].h
+    point, cols = np.concatenate([pose, m]), []
+    for i in range(5):
+        d = np.zeros(5)
+        d[i] = 1e-6
+        hi, lo = (
+            h(point[:3] + d[:3], (point[3:] + d[3:])[None])[0],
+            h(point[:3] - d[:3], (point[3:] - d[3:])[None])[0],
+        )
+        diff = hi - lo
+        diff[1] = (diff[1] + np.pi) % (2 * np.pi) - np.pi
+        cols.append(diff / 2e-6)
+    return np.stack(cols, axis=1)
+
+
+def dense_terms(f: EKFSLAM, z: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Per observation j and landmark i: ν (k, n, 2) and the full-width H (k, n, 2, d),
+    from h and finite differences; and P (d, d)."""
+    mean, P = f.mean, f.cov
+    d, n = mean.size, f.n_landmarks
+    nu, H = np.zeros((len(z), n, 2)), np.zeros((len(z), n, 2, d))
+    h = MEASUREMENT_MODELS["range_bearing"].h
+    for i in range(n):
+        s = 3 + 2 * i
+        J = numeric_h_jacobian(mean[:3], mean[s : s + 2])
+        for j in range(len(z)):
+            v = z[j] - h(mean[:3], mean[s : s + 2][None])[0]
+            v[1] = (v[1] + np.pi) % (2 * np.pi) - np.pi
+            nu[j, i] = v
+            H[j, i][:, :3], H[j, i][:, s : s + 2] = J[:, :3], J[:, 3:]
+    return nu, H, P
+
+
+def cluttered_filter(rng: np.random.Generator, association: str, n: int = 6):
+    """Landmarks 0.4–0.8 m apart mapped from an uncertain pose, then a turn that leaves
+    the heading uncertain: a scan of them is ambiguous."""
+    f = EKFSLAM(
+        alphas=(0.02, 0.0, 0.0, 0.0),
+        measurement_cov=Q_CORRELATED,
+        max_landmarks=12,
+        initial_pose_cov=np.diag([0.01, 0.01, 0.002]),
+        data_association=association,
+    )
+    centre = np.array([3.0, 0.0])
+    truth = centre + rng.uniform(-0.8, 0.8, size=(n, 2))
+    f.update(MEASUREMENT_MODELS["range_bearing"].h(np.zeros(3), truth))
+    f.predict([0.3, 0.0, -0.3])
+    return f, truth
+
+
+def test_nearest_is_the_smallest_mahalanobis_distance_of_a_dense_computation():
+    rng = np.random.default_rng(5)
+    for _ in range(5):
+        f, truth = cluttered_filter(rng, "nearest_neighbor")
+        z = MEASUREMENT_MODELS["range_bearing"].h(np.zeros(3), truth[:4])
+        z += rng.normal(size=z.shape) * [0.05, 0.03]
+        nu, H, P = dense_terms(f, z)
+        expected = np.full(len(z), np.inf)
+        for j in range(len(z)):
+            for i in range(f.n_landmarks):
+                S = H[j, i] @ P @ H[j, i].T + Q_CORRELATED
+                expected[j] = min(expected[j], nu[j, i] @ np.linalg.solve(S, nu[j, i]))
+        np.testing.assert_allclose(f.update(z).nearest, expected, rtol=1e-5)
+
+
+def brute_force_jcbb(f: EKFSLAM, z: np.ndarray) -> tuple[list[int], int]:
+    """Every hypothesis (a compatible landmark or none per observation, none twice),
+    the most pairings whose joint NIS passes the joint gate, then the smallest NIS; and
+    how many observations had more than one compatible landmark."""
+    from scipy.stats import chi2
+
+    nu, H, P = dense_terms(f, z)
+    match = f.association_gates[0]
+    p = chi2.cdf(match, 2)
+    options = []
+    for j in range(len(z)):
+        compatible = [
+            i
+            for i in range(f.n_landmarks)
+            if nu[j, i] @ np.linalg.solve(H[j, i] @ P @ H[j, i].T + Q_CORRELATED, nu[j, i]) <= match
+        ]
+        options.append([*compatible, -1])
+    best, best_key = [-1] * len(z), (0, 0.0)
+    for hypothesis in itertools.product(*options):
+        paired = [(j, i) for j, i in enumerate(hypothesis) if i >= 0]
+        if len({i for _, i in paired}) < len(paired):
+            continue
+        if not paired:
+            continue
+        Hh = np.concatenate([H[j, i] for j, i in paired])
+        v = np.concatenate([nu[j, i] for j, i in paired])
+        S = Hh @ P @ Hh.T + np.kron(np.eye(len(paired)), Q_CORRELATED)
+        nis = float(v @ np.linalg.solve(S, v))
+        if nis > chi2.ppf(p, 2 * len(paired)):
+            continue
+        key = (len(paired), -nis)
+        if key > best_key:
+            best, best_key = list(hypothesis), key
+    return best, sum(len(o) > 2 for o in options)
+
+
+def test_jcbb_finds_the_hypothesis_an_exhaustive_search_finds():
+    """On ambiguous scans (landmarks closer than the uncertainty, observations of some
+    of them shifted), JCBB's pairing is the exhaustive search's."""
+    rng = np.random.default_rng(6)
+    ambiguous = refused = 0
+    for _ in range(12):
+        f, truth = cluttered_filter(rng, "jcbb")
+        seen = rng.permutation(len(truth))[:4]
+        pose = np.array([0.0, 0.0, rng.normal(0, 0.05)])
+        z = MEASUREMENT_MODELS["range_bearing"].h(pose, truth[seen])
+        z += rng.normal(size=z.shape) * [0.06, 0.04]
+        z[0, 1] += rng.choice([-1, 1]) * 0.15  # alone it fits the heading; with the rest not
+        expected, several = brute_force_jcbb(f, z)
+        n = f.n_landmarks
+        got = f.update(z).ids
+        np.testing.assert_array_equal(np.where((got >= 0) & (got < n), got, -1), expected)
+        ambiguous += several
+        refused += expected.count(-1)
+    assert ambiguous >= 10 and refused >= 3, (ambiguous, refused)  # the search had work
+
+
+def test_a_tentative_sighting_is_confirmed_exactly_within_the_match_gate():
+    """The robot moves between the two sightings: the second confirms the first iff
+    the χ² distance of their world positions over W₁QW₁ᵀ + W₂QW₂ᵀ (Q correlated) is
+    within the match gate."""
+    hm = MEASUREMENT_MODELS["range_bearing"]
+    first_z = np.array([[3.0, 0.5]])
+    pose2 = MOTION_MODELS["odometry"].motion(np.zeros(3), np.array([0.1, 0.5, 0.2]))
+    p1 = hm.inverse(np.zeros(3), first_z)[0]
+    _, W1 = hm.inverse_jacobians(np.zeros(3), first_z)
+    for scale, confirmed in ((0.95, True), (1.05, False)):
+        f = EKFSLAM(
+            alphas=(0, 0, 0, 0),
+            measurement_cov=Q_CORRELATED,
+            max_landmarks=4,
+            data_association="jcbb",
+            new_landmark_sightings=2,
+        )
+        assert f.update(first_z).tentative.all()
+        f.predict([0.1, 0.5, 0.2])
+        # A second sighting displaced along a direction, at the gate's distance × scale.
+        z2 = hm.h(pose2, p1[None])
+        _, W2 = hm.inverse_jacobians(pose2, z2)
+        C = W1[0] @ Q_CORRELATED @ W1[0].T + W2[0] @ Q_CORRELATED @ W2[0].T
+        direction = np.array([0.6, 0.8])
+        step = np.sqrt(f.association_gates[0] / (direction @ np.linalg.solve(C, direction)))
+        moved = p1 + scale * step * direction
+        z2 = hm.h(pose2, moved[None])
+        # What the filter computes from z2 (its own inverse at its pose): the same point.
+        np.testing.assert_allclose(hm.inverse(f.pose, z2)[0], moved, atol=1e-9)
+        result = f.update(z2)
+        assert result.status.tolist() == ([INITIALISED] if confirmed else [TENTATIVE])
