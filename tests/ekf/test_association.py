@@ -285,9 +285,9 @@ def test_an_inconsistent_second_sighting_does_not_confirm():
 Q_CORRELATED = np.array([[0.04**2, 1e-4], [1e-4, math.radians(1.5) ** 2]])
 
 
-def numeric_h_jacobian(pose: np.ndarray, m: np.ndarray) -> np.ndarray:
+def numeric_h_jacobian(pose: np.ndarray, m: np.ndarray, model: str) -> np.ndarray:
     """∂h/∂(pose, m) (2×5) by central differences, bearing differences wrapped."""
-    h = MEASUREMENT_MODELS["range_bearing"].h
+    h = MEASUREMENT_MODELS[model].h
     point, cols = np.concatenate([pose, m]), []
     for i in range(5):
         d = np.zeros(5)
@@ -297,7 +297,8 @@ def numeric_h_jacobian(pose: np.ndarray, m: np.ndarray) -> np.ndarray:
             h(point[:3] - d[:3], (point[3:] - d[3:])[None])[0],
         )
         diff = hi - lo
-        diff[1] = (diff[1] + np.pi) % (2 * np.pi) - np.pi
+        if model == "range_bearing":
+            diff[1] = (diff[1] + np.pi) % (2 * np.pi) - np.pi
         cols.append(diff / 2e-6)
     return np.stack(cols, axis=1)
 
@@ -308,23 +309,28 @@ def dense_terms(f: EKFSLAM, z: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.n
     mean, P = f.mean, f.cov
     d, n = mean.size, f.n_landmarks
     nu, H = np.zeros((len(z), n, 2)), np.zeros((len(z), n, 2, d))
-    h = MEASUREMENT_MODELS["range_bearing"].h
+    model = f.measurement_model
+    h = MEASUREMENT_MODELS[model].h
     for i in range(n):
         s = 3 + 2 * i
-        J = numeric_h_jacobian(mean[:3], mean[s : s + 2])
+        J = numeric_h_jacobian(mean[:3], mean[s : s + 2], model)
         for j in range(len(z)):
             v = z[j] - h(mean[:3], mean[s : s + 2][None])[0]
-            v[1] = (v[1] + np.pi) % (2 * np.pi) - np.pi
+            if model == "range_bearing":
+                v[1] = (v[1] + np.pi) % (2 * np.pi) - np.pi
             nu[j, i] = v
             H[j, i][:, :3], H[j, i][:, s : s + 2] = J[:, :3], J[:, 3:]
     return nu, H, P
 
 
-def cluttered_filter(rng: np.random.Generator, association: str, n: int = 6):
+def cluttered_filter(
+    rng: np.random.Generator, association: str, n: int = 6, model: str = "range_bearing"
+):
     """Landmarks 0.4–0.8 m apart mapped from an uncertain pose, then a turn that leaves
     the heading uncertain: a scan of them is ambiguous."""
     f = EKFSLAM(
         alphas=(0.02, 0.0, 0.0, 0.0),
+        measurement_model=model,
         measurement_cov=Q_CORRELATED,
         max_landmarks=12,
         initial_pose_cov=np.diag([0.01, 0.01, 0.002]),
@@ -332,16 +338,17 @@ def cluttered_filter(rng: np.random.Generator, association: str, n: int = 6):
     )
     centre = np.array([3.0, 0.0])
     truth = centre + rng.uniform(-0.8, 0.8, size=(n, 2))
-    f.update(MEASUREMENT_MODELS["range_bearing"].h(np.zeros(3), truth))
+    f.update(MEASUREMENT_MODELS[model].h(np.zeros(3), truth))
     f.predict([0.3, 0.0, -0.3])
     return f, truth
 
 
-def test_nearest_is_the_smallest_mahalanobis_distance_of_a_dense_computation():
+@pytest.mark.parametrize("model", ["range_bearing", "cartesian"])
+def test_nearest_is_the_smallest_mahalanobis_distance_of_a_dense_computation(model):
     rng = np.random.default_rng(5)
     for _ in range(5):
-        f, truth = cluttered_filter(rng, "nearest_neighbor")
-        z = MEASUREMENT_MODELS["range_bearing"].h(np.zeros(3), truth[:4])
+        f, truth = cluttered_filter(rng, "nearest_neighbor", model=model)
+        z = MEASUREMENT_MODELS[model].h(np.zeros(3), truth[:4])
         z += rng.normal(size=z.shape) * [0.05, 0.03]
         nu, H, P = dense_terms(f, z)
         expected = np.full(len(z), np.inf)
