@@ -85,8 +85,9 @@ class RLlibSettings:
             raise ValueError(f"address must be a non-empty string, got {self.address!r}")
 
 
-def _refuse_unmatched(cfg: TrainConfig) -> None:
-    """ConfigError for the PPO settings that RLlib would read differently."""
+def check_rllib_config(cfg: TrainConfig) -> None:
+    """Raise :class:`ConfigError` for the PPO settings that RLlib would read differently
+    (no Ray needed: a config is checked before a cluster is reached)."""
     p = cfg.ppo
     if p.target_kl is not None:
         raise ConfigError(
@@ -120,7 +121,7 @@ def ppo_config(cfg: TrainConfig, settings: RLlibSettings) -> Any:
 
     from agents.registry import ENV_ID
 
-    _refuse_unmatched(cfg)
+    check_rllib_config(cfg)
     p = cfg.ppo
     envs_per_runner = settings.num_envs_per_runner or cfg.n_envs
     rollout = p.n_steps * envs_per_runner * max(settings.num_env_runners, 1)
@@ -231,6 +232,7 @@ def _train(cfg: TrainConfig, settings: RLlibSettings, algo_config: Any, out: Pat
     from tqdm import tqdm
 
     algo = algo_config.build_algo()
+    placement = _env_runner_placement(algo)
     writer = (
         SummaryWriter(str(_next_run_dir(out / "tb", cfg.model_name))) if cfg.tensorboard else None
     )
@@ -270,6 +272,7 @@ def _train(cfg: TrainConfig, settings: RLlibSettings, algo_config: Any, out: Pat
             "vectorization": cfg.vectorization,
             "learner_device": settings.learner_device,
             "num_learners": settings.num_learners,
+            "env_runners": placement,
             "env_step_share": None,  # RLlib steps the envs in other processes
             "interrupted": interrupted,
             **(evaluator.summary() if evaluator is not None else _NO_EVAL),
@@ -287,6 +290,22 @@ def _train(cfg: TrainConfig, settings: RLlibSettings, algo_config: Any, out: Pat
     return final
 
 
+def _env_runner_placement(algo: Any) -> list[dict[str, str]]:
+    """Each remote EnvRunner's Ray node and the class of the env it steps (the
+    EnvRunner of this process when there are none)."""
+
+    def where(runner: Any) -> dict[str, str]:
+        import ray
+
+        return {
+            "node_id": ray.get_runtime_context().get_node_id(),
+            "env": type(runner.env.unwrapped).__name__,
+        }
+
+    remote = algo.env_runner_group.num_remote_env_runners() > 0
+    return algo.env_runner_group.foreach_env_runner(where, local_env_runner=not remote)
+
+
 _NO_EVAL: dict[str, Any] = {
     "last_eval_slam": None,
     "best_eval_slam": None,
@@ -302,15 +321,25 @@ def _env_steps(result: Mapping[str, Any]) -> int:
 
 
 def _slam_at_top(result: Mapping[str, Any]) -> dict[str, Any]:
-    """``result`` with the EnvRunners' SLAM metrics at its top, as ``slam/…`` (where the
-    stable-baselines3 path logs them), rather than under ``env_runners/slam/…``."""
+    """``result`` for TensorBoard: the EnvRunners' SLAM metrics at its top, as
+    ``slam/…`` (where the stable-baselines3 path logs them) rather than under
+    ``env_runners/``, and without the config (hyperparameters are no curves)."""
     from ray.rllib.utils.metrics import ENV_RUNNER_RESULTS
 
-    runners = dict(result.get(ENV_RUNNER_RESULTS, {}))
-    slam = runners.pop("slam", None)
-    top = {**result, ENV_RUNNER_RESULTS: runners}
-    if slam is not None:
-        top["slam"] = slam
+    from agents.slam_callbacks import TRAIN_PREFIX
+
+    runners: dict[str, Any] = {}
+    slam: dict[str, Any] = {}
+    for key, value in result.get(ENV_RUNNER_RESULTS, {}).items():
+        if key == TRAIN_PREFIX.rstrip("/") and isinstance(value, Mapping):
+            slam.update(value)
+        elif key.startswith(TRAIN_PREFIX):
+            slam[key[len(TRAIN_PREFIX) :]] = value
+        else:
+            runners[key] = value
+    top = {k: v for k, v in result.items() if k != "config"}
+    top[ENV_RUNNER_RESULTS] = runners
+    top[TRAIN_PREFIX.rstrip("/")] = slam
     return top
 
 

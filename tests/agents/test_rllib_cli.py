@@ -1,0 +1,112 @@
+"""The RLlib engine's edges that need no Ray (the default suite): a clear error naming
+the extra when Ray RLlib is missing, flags refused where they mean nothing, configs
+that RLlib cannot honour refused before any cluster is reached, ``rllib:`` specs."""
+
+from __future__ import annotations
+
+import sys
+
+import pytest
+
+import agents.cli
+from agents.cli import main
+from agents.registry import agent_label, parse_agent_specs
+from agents.rllib_env import RLLIB_INSTALL, RLlibNotInstalledError, require_rllib
+from agents.rllib_training import RLlibSettings, check_rllib_config
+from agents.training import ConfigError, config_from_dict
+
+
+@pytest.fixture
+def no_ray(monkeypatch):
+    """Ray hidden, as in the default install (``import ray`` fails)."""
+    for name in [m for m in sys.modules if m == "ray" or m.startswith("ray.")]:
+        monkeypatch.delitem(sys.modules, name)
+    monkeypatch.setitem(sys.modules, "ray", None)
+
+
+def test_require_rllib_names_the_extra(no_ray):
+    with pytest.raises(RLlibNotInstalledError, match=r"pip install -e '\.\[rllib\]'"):
+        require_rllib("--engine rllib")
+    assert issubclass(RLlibNotInstalledError, ImportError)
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["train", "--engine", "rllib", "--total-steps", "64"],
+        ["evaluate", "--agents", "random,rllib:runs/rllib/model", "--episodes", "1"],
+    ],
+)
+def test_missing_ray_is_one_line_naming_the_extra(argv, no_ray, tmp_path, capsys, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(SystemExit) as exc:
+        main([*argv, "--out", str(tmp_path / "out")])
+    assert exc.value.code == 2
+    err = capsys.readouterr().err
+    assert RLLIB_INSTALL in err and "Ray RLlib" in err
+    assert len(err.strip().splitlines()) == 1
+    assert not (tmp_path / "out").exists()  # nothing ran
+
+
+def test_default_engine_is_sb3_and_the_cli_never_imports_ray(no_ray):
+    args = agents.cli.build_parser().parse_args(["train"])
+    assert args.engine == "sb3"
+    assert agents.cli._rllib_settings(args) is None
+
+
+@pytest.mark.parametrize(
+    "flags",
+    [
+        ["--address", "127.0.0.1:6379"],
+        ["--num-env-runners", "2"],
+        ["--num-envs-per-runner", "4"],
+        ["--learner-device", "gpu"],
+        ["--num-learners", "1"],
+    ],
+)
+def test_rllib_flags_without_the_rllib_engine_are_refused(flags, tmp_path, capsys):
+    with pytest.raises(SystemExit) as exc:
+        main(["train", *flags, "--out", str(tmp_path / "out")])
+    assert exc.value.code == 2
+    err = capsys.readouterr().err
+    assert flags[0] in err and "--engine rllib" in err
+    assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize(
+    ("ppo", "key"),
+    [
+        ({"target_kl": 0.02}, "target_kl"),
+        ({"normalize_advantage": False}, "normalize_advantage"),
+        ({"log_std_init": -0.5}, "log_std_init"),
+    ],
+)
+def test_settings_rllib_cannot_honour_are_refused(ppo, key):
+    with pytest.raises(ConfigError, match=key):
+        check_rllib_config(config_from_dict({"ppo": ppo}))
+
+
+def test_the_default_config_suits_rllib():
+    check_rllib_config(config_from_dict(None))  # raises nothing
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "message"),
+    [
+        ({"num_env_runners": -1}, "num_env_runners"),
+        ({"num_learners": True}, "num_learners"),
+        ({"num_envs_per_runner": 0}, "num_envs_per_runner"),
+        ({"learner_device": "tpu"}, "learner_device"),
+        ({"address": ""}, "address"),
+    ],
+)
+def test_bad_rllib_settings_are_value_errors(kwargs, message):
+    with pytest.raises(ValueError, match=message):
+        RLlibSettings(**kwargs)
+
+
+def test_rllib_specs():
+    assert agent_label("rllib:runs/rllib/ppo_active_slam/") == "rllib:ppo_active_slam"
+    assert parse_agent_specs("random, rllib:a/model") == ["random", "rllib:a/model"]
+    with pytest.raises(ValueError, match="given twice"):
+        parse_agent_specs("rllib:a/model,rllib:b/model")
