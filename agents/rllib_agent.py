@@ -1,5 +1,6 @@
 """RLlib policies as agents: the RLModule of a checkpoint that ``slam-env train --engine
-rllib`` wrote, acting through the :class:`agents.base.Agent` interface (``rllib:PATH``).
+rllib`` wrote, acting through the :class:`agents.base.Agent` interface (``rllib:PATH``)
+as a :class:`agents.ppo.PPOAgent` does.
 
 Only the module is restored (no Ray cluster, no env runners): ``PATH`` is the
 algorithm checkpoint folder (``OUT/<model_name>``, ``OUT/checkpoints/…``,
@@ -15,9 +16,8 @@ from typing import Any
 
 import gymnasium as gym
 import numpy as np
-import yaml
 
-from agents.ppo import check_spaces
+from agents.ppo import PPOAgent, check_spaces, saved_config
 
 #: Where an algorithm checkpoint keeps the trained RLModule (RLlib's layout).
 MODULE_SUBDIR = Path("learner_group") / "learner" / "rl_module" / "default_policy"
@@ -39,32 +39,17 @@ def resolve_module_dir(path: str | Path) -> Path:
     )
 
 
-class RLlibAgent:
-    """A trained RLlib RLModule with the :class:`agents.base.Agent` interface.
-    Deterministic (the mode of the action distribution) unless told otherwise.
+class RLlibPolicy:
+    """A trained RLlib RLModule with stable-baselines3's ``predict``, so that
+    :class:`agents.ppo.PPOAgent` serves it as it serves a stable-baselines3 model
+    (and ``evaluate`` runs its episodes side by side on the native vector env).
 
     Attributes:
         module: the torch RLModule, on the CPU, in evaluation mode.
-        path: the checkpoint it was loaded from.
-        config: the training config saved next to it (``<name>.yaml``), or ``None``.
-
-    Its action depends on the observation alone, so ``evaluate`` runs its episodes
-    side by side on the native vector env (:mod:`agents.vector_episodes`).
     """
 
-    acts_on_batches = True
-
-    def __init__(
-        self,
-        module: Any,
-        path: Path | None = None,
-        config: dict[str, Any] | None = None,
-        deterministic: bool = True,
-    ) -> None:
+    def __init__(self, module: Any) -> None:
         self.module = module
-        self.path = path
-        self.config = config
-        self.deterministic = deterministic
         self.observation_space = module.observation_space
         self.action_space = module.action_space
         self._dist_cls = module.get_inference_action_dist_cls()
@@ -74,15 +59,13 @@ class RLlibAgent:
         observation: Any,
         state: Any = None,
         episode_start: Any = None,
-        deterministic: bool | None = None,
+        deterministic: bool = False,
     ) -> tuple[np.ndarray, Any]:
-        """One action for one observation, or a (B, …) batch for a batch;
-        ``deterministic=None`` uses the agent's default (``True``)."""
+        """The action for one observation, or a (B, …) batch of them for a batch."""
         import torch
         from ray.rllib.core.columns import Columns
         from ray.rllib.utils.spaces.space_utils import unsquash_action
 
-        det = self.deterministic if deterministic is None else bool(deterministic)
         obs = np.asarray(observation, dtype=self.observation_space.dtype)
         single = obs.shape == self.observation_space.shape
         if not single and obs.shape[1:] != self.observation_space.shape:
@@ -90,24 +73,22 @@ class RLlibAgent:
                 f"observation of shape {obs.shape} does not fit the policy's "
                 f"{self.observation_space.shape} (nor a batch of them)"
             )
+        batch = torch.from_numpy(obs[None] if single else obs)
         with torch.no_grad():
-            out = self.module.forward_inference(
-                {Columns.OBS: torch.from_numpy(obs[None] if single else obs)}
-            )
+            out = self.module.forward_inference({Columns.OBS: batch})
             dist = self._dist_cls.from_logits(out[Columns.ACTION_DIST_INPUTS])
-            if det:
+            if deterministic:
                 dist = dist.to_deterministic()
             actions = dist.sample().numpy()
         actions = np.stack([unsquash_action(a, self.action_space) for a in actions])
         actions = actions.astype(self.action_space.dtype, copy=False)
         return (actions[0] if single else actions), state
 
-    def __repr__(self) -> str:
-        return f"RLlibAgent(path={str(self.path)!r}, deterministic={self.deterministic})"
 
-
-def load_rllib_agent(path: str | Path, env: gym.Env | None = None) -> RLlibAgent:
-    """Load the policy of an RLlib checkpoint written by ``slam-env train --engine rllib``.
+def load_rllib_agent(path: str | Path, env: gym.Env | None = None) -> PPOAgent:
+    """Load the policy of an RLlib checkpoint written by ``slam-env train --engine
+    rllib``: a :class:`agents.ppo.PPOAgent` over its :class:`RLlibPolicy`, with the
+    training config saved next to the checkpoint (``<name>.yaml``).
 
     With ``env``, its observation and action spaces must equal the policy's, else
     ``ValueError`` says how they differ. Raises
@@ -118,8 +99,7 @@ def load_rllib_agent(path: str | Path, env: gym.Env | None = None) -> RLlibAgent
     require_rllib("an 'rllib:PATH' agent")
     from ray.rllib.core.rl_module.rl_module import RLModule
 
-    module_dir = resolve_module_dir(path)
-    module = RLModule.from_checkpoint(module_dir)
+    module = RLModule.from_checkpoint(resolve_module_dir(path))
     module.eval()
     if env is not None:
         check_spaces(
@@ -130,10 +110,5 @@ def load_rllib_agent(path: str | Path, env: gym.Env | None = None) -> RLlibAgent
             source=f"RLlib policy {path}",
         )
     checkpoint = Path(path).expanduser()
-    config_file = checkpoint.with_name(checkpoint.name + ".yaml")
-    config = None
-    if config_file.is_file():
-        with open(config_file, encoding="utf-8") as fh:
-            loaded = yaml.safe_load(fh)
-        config = loaded if isinstance(loaded, dict) else None
-    return RLlibAgent(module, path=checkpoint, config=config)
+    config = saved_config(checkpoint.with_name(checkpoint.name + ".yaml"))
+    return PPOAgent(RLlibPolicy(module), path=checkpoint, config=config)

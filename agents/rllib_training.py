@@ -49,9 +49,7 @@ from agents.training import (
     _check_env,
     _finite_map,
     _write_yaml,
-    config_from_dict,
-    load_config,
-    validate_config,
+    as_train_config,
 )
 
 #: ``vectorization`` (the config's key) → RLlib's ``gym_env_vectorize_mode``.
@@ -201,12 +199,7 @@ def train_rllib(
 
     from agents.rllib_env import register_rllib_envs
 
-    if isinstance(config, TrainConfig):
-        cfg = validate_config(config)
-    elif isinstance(config, Mapping):
-        cfg = config_from_dict(config)
-    else:
-        cfg = load_config(config)
+    cfg = as_train_config(config)
     settings = settings or RLlibSettings()
     algo_config = ppo_config(cfg, settings)  # refuses what RLlib cannot honour, first
     torch.set_num_threads(cfg.torch_threads)
@@ -390,7 +383,8 @@ class _Evaluator:
 
     def evaluate(self, algo: Any, steps: int, writer: Any) -> None:
         from agents.evaluation import METRICS
-        from agents.rllib_agent import RLlibAgent
+        from agents.ppo import PPOAgent
+        from agents.rllib_agent import RLlibPolicy
         from agents.slam_metrics import evaluation_score
         from agents.vector_episodes import run_episodes_batched
 
@@ -398,7 +392,7 @@ class _Evaluator:
         module.eval()
         seeds = [self.cfg.eval_seed + i for i in range(self.cfg.eval_episodes)]
         records = run_episodes_batched(
-            RLlibAgent(module), seeds, self.cfg.env_options, self.cfg.max_episode_steps
+            PPOAgent(RLlibPolicy(module)), seeds, self.cfg.env_options, self.cfg.max_episode_steps
         )
         module.train()
         per_episode = [r.metrics() for r in records]

@@ -34,7 +34,7 @@ def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item
     are deselected (not skipped) otherwise, so the default suite never needs Ray."""
     if "rllib" in (config.option.markexpr or ""):
         return
-    needs_ray = [item.get_closest_marker("rllib") is not None for item in items]
-    if any(needs_ray):
-        config.hook.pytest_deselected(items=[i for i, r in zip(items, needs_ray) if r])
-        items[:] = [i for i, r in zip(items, needs_ray) if not r]
+    needs_ray = [item for item in items if item.get_closest_marker("rllib") is not None]
+    if needs_ray:
+        config.hook.pytest_deselected(items=needs_ray)
+        items[:] = [item for item in items if item.get_closest_marker("rllib") is None]

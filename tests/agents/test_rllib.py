@@ -24,6 +24,8 @@ import pytest
 import yaml
 
 from agents.cli import main
+from agents.registry import make_env
+from agents.rllib_agent import load_rllib_agent
 from agents.rllib_env import RLLIB_ENV_IDS, make_rllib_env
 from agents.rllib_training import RLlibSettings, ppo_config
 from agents.training import config_from_dict
@@ -220,3 +222,53 @@ def test_a_minibatch_larger_than_the_rollout_is_refused():
     cfg = config_from_dict({"n_envs": 1, "ppo": {"n_steps": 16, "batch_size": 64}})
     with pytest.raises(ValueError, match="batch_size"):
         ppo_config(cfg, RLlibSettings(num_env_runners=1))
+
+
+@pytest.fixture
+def saved_module(tmp_path):
+    """An untrained RLModule of the RLlib engine's PPO, saved as RLlib saves one, and
+    the env it fits."""
+    cfg = config_from_dict({"env_options": {"n_landmarks": 4}, "ppo": {"net_arch": [8]}})
+    env = make_env(cfg.env_options, max_steps=20)
+    spec = ppo_config(cfg, RLlibSettings(num_env_runners=0)).get_rl_module_spec(env=env)
+    module = spec.build()
+    module.save_to_path(str(tmp_path / "module"))
+    yield tmp_path / "module", module, env
+    env.close()
+
+
+def test_the_policy_acts_as_its_module_says_one_or_many_at_a_time(saved_module):
+    import torch
+
+    path, module, env = saved_module
+    agent = load_rllib_agent(path, env)
+    assert agent.acts_on_batches  # evaluate batches its episodes
+    obs = np.stack([env.reset(seed=s)[0] for s in range(3)])
+    actions, state = agent.predict(obs[0])
+    assert state is None and actions.shape == (2,) and actions.dtype == np.float32
+    assert env.action_space.contains(actions)
+    with torch.no_grad():
+        out = module.forward_inference({"obs": torch.from_numpy(obs)})
+    mean = out["action_dist_inputs"][:, :2].numpy()  # the Gaussian's mean, then log σ
+    np.testing.assert_allclose(agent.predict(obs)[0], np.clip(mean, -1, 1), rtol=1e-6)
+    batch = agent.predict(obs)[0]
+    np.testing.assert_allclose(batch, np.stack([agent.predict(o)[0] for o in obs]), rtol=1e-6)
+    sampled = np.stack([agent.predict(obs[0], deterministic=False)[0] for _ in range(5)])
+    assert np.ptp(sampled, axis=0).max() > 0  # a stochastic policy when asked
+    with pytest.raises(ValueError, match="does not fit"):
+        agent.predict(obs[:, :-1])
+
+
+def test_a_policy_for_another_env_or_no_checkpoint_is_refused(saved_module, tmp_path):
+    path, _, _ = saved_module
+    other = make_env({"n_landmarks": 7})
+    try:
+        with pytest.raises(ValueError, match="does not fit this env"):
+            load_rllib_agent(path, other)
+    finally:
+        other.close()
+    with pytest.raises(ValueError, match="not found"):
+        load_rllib_agent(tmp_path / "nothing")
+    (tmp_path / "empty").mkdir()
+    with pytest.raises(ValueError, match="not an RLlib checkpoint"):
+        load_rllib_agent(tmp_path / "empty")
