@@ -213,6 +213,7 @@ def train_rllib(
         # address None: RAY_ADDRESS if set, else a Ray started for this run.
         ray.init(address=settings.address, include_dashboard=False, log_to_driver=cfg.verbose > 0)
     try:
+        check_gpus(settings)
         register_rllib_envs()
         return _train(cfg, settings, algo_config, out)
     finally:
@@ -225,7 +226,6 @@ def _train(cfg: TrainConfig, settings: RLlibSettings, algo_config: Any, out: Pat
     from tqdm import tqdm
 
     algo = algo_config.build_algo()
-    placement = _env_runner_placement(algo)
     writer = (
         SummaryWriter(str(_next_run_dir(out / "tb", cfg.model_name))) if cfg.tensorboard else None
     )
@@ -233,8 +233,9 @@ def _train(cfg: TrainConfig, settings: RLlibSettings, algo_config: Any, out: Pat
     bar = tqdm(total=cfg.total_timesteps, unit="step", disable=not cfg.progress_bar)
     final = out / cfg.model_name
     steps, interrupted = 0, False
-    start = time.perf_counter()
     try:
+        placement = _env_runner_placement(algo)
+        start = time.perf_counter()
         try:
             while steps < cfg.total_timesteps:
                 result = algo.train()
@@ -281,6 +282,20 @@ def _train(cfg: TrainConfig, settings: RLlibSettings, algo_config: Any, out: Pat
         algo.stop()
         _remove_if_empty(logdir)
     return final
+
+
+def check_gpus(settings: RLlibSettings) -> None:
+    """ValueError unless the cluster has a GPU for each learner that asks for one."""
+    import ray
+
+    if settings.learner_device != "gpu":
+        return
+    needed = max(settings.num_learners, 1)
+    have = ray.cluster_resources().get("GPU", 0)
+    if have < needed:
+        raise ValueError(
+            f"--learner-device gpu needs {needed} GPU(s) in the Ray cluster, which has {have:g}"
+        )
 
 
 def _env_runner_placement(algo: Any) -> list[dict[str, str]]:

@@ -27,7 +27,7 @@ from agents.cli import main
 from agents.registry import make_env
 from agents.rllib_agent import load_rllib_agent
 from agents.rllib_env import RLLIB_ENV_IDS, make_rllib_env
-from agents.rllib_training import RLlibSettings, ppo_config
+from agents.rllib_training import RLlibSettings, check_gpus, ppo_config
 from agents.training import config_from_dict
 from slam_env.vector import ActiveSLAMVectorEnv
 
@@ -272,3 +272,15 @@ def test_a_policy_for_another_env_or_no_checkpoint_is_refused(saved_module, tmp_
     (tmp_path / "empty").mkdir()
     with pytest.raises(ValueError, match="not an RLlib checkpoint"):
         load_rllib_agent(tmp_path / "empty")
+
+
+def test_a_gpu_learner_needs_a_gpu_in_the_cluster(monkeypatch):
+    import ray
+
+    settings = RLlibSettings(learner_device="gpu", num_learners=2)
+    monkeypatch.setattr(ray, "cluster_resources", lambda: {"CPU": 16.0, "GPU": 1.0})
+    with pytest.raises(ValueError, match="needs 2 GPU"):
+        check_gpus(settings)
+    monkeypatch.setattr(ray, "cluster_resources", lambda: {"CPU": 16.0, "GPU": 2.0})
+    check_gpus(settings)  # raises nothing
+    check_gpus(RLlibSettings())  # a CPU learner asks for none
