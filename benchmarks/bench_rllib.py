@@ -1,10 +1,11 @@
 """Sampling throughput: RLlib's EnvRunners (1 and 2) beside the stable-baselines3 path.
 
-    .venv-rllib/bin/python benchmarks/bench_rllib.py [--steps 4096] [--repeats 3]
+    .venv-rllib/bin/python benchmarks/bench_rllib.py [--steps 4096] [--repeats 3] [--n-envs K]
 
 Env steps/s of collecting rollouts with the policy acting (no gradient updates), on
 ``slam_env/ActiveSLAM-v0`` with the default config's env options, sub-envs and
-policy net (``agents/configs/ppo_default.yaml``), on one machine, in one run:
+policy net (``agents/configs/ppo_default.yaml``; ``--n-envs`` sets the sub-envs of every
+sampler), on one machine, in one run:
 
 * ``sb3``: ``slam-env train``'s path, stable-baselines3's ``collect_rollouts`` on the
   native vector env of ``n_envs`` sub-envs, in this process;
@@ -84,11 +85,12 @@ def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--steps", type=int, default=4096, help="env steps per sampler a run")
     parser.add_argument("--repeats", type=int, default=3, help="runs per row")
+    parser.add_argument("--n-envs", type=int, help="sub-envs per sampler (the config's n_envs)")
     args = parser.parse_args(argv)
 
     import ray
 
-    cfg = load_config(checkpoint_freq=0, eval_freq=0, progress_bar=False)
+    cfg = load_config(checkpoint_freq=0, eval_freq=0, progress_bar=False, n_envs=args.n_envs)
     ray.init(num_cpus=2, include_dashboard=False, log_to_driver=False)
     try:
         algo = rllib_algo(cfg, runners=2)
