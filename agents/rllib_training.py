@@ -34,6 +34,8 @@ from __future__ import annotations
 import contextlib
 import json
 import math
+import os
+import socket
 import time
 from collections.abc import Mapping
 from dataclasses import dataclass
@@ -202,6 +204,9 @@ def train_rllib(
     cfg = as_train_config(config)
     settings = settings or RLlibSettings()
     algo_config = ppo_config(cfg, settings)  # refuses what RLlib cannot honour, first
+    address = settings.address or os.environ.get("RAY_ADDRESS") or None
+    if not ray.is_initialized() and address is not None:
+        check_reachable(address)
     torch.set_num_threads(cfg.torch_threads)
     _check_env(cfg)
     out = Path(cfg.out_dir)
@@ -210,8 +215,8 @@ def train_rllib(
 
     connected_here = not ray.is_initialized()
     if connected_here:
-        # address None: RAY_ADDRESS if set, else a Ray started for this run.
-        ray.init(address=settings.address, include_dashboard=False, log_to_driver=cfg.verbose > 0)
+        # address None: a Ray started for this run.
+        ray.init(address=address, include_dashboard=False, log_to_driver=cfg.verbose > 0)
     try:
         check_gpus(settings)
         register_rllib_envs()
@@ -282,6 +287,22 @@ def _train(cfg: TrainConfig, settings: RLlibSettings, algo_config: Any, out: Pat
         algo.stop()
         _remove_if_empty(logdir)
     return final
+
+
+def check_reachable(address: str, timeout_s: float = 10.0) -> None:
+    """ValueError unless a ``HOST:PORT`` address accepts a connection (Ray itself
+    retries a dead address for minutes); other forms (``auto``, ``ray://…``) are left
+    to Ray."""
+    host, sep, port = address.rpartition(":")
+    if not sep or "/" in address or not port.isdigit():
+        return
+    try:
+        socket.create_connection((host.strip("[]"), int(port)), timeout=timeout_s).close()
+    except OSError as exc:
+        raise ValueError(
+            f"no Ray cluster answers at {address}: {exc.strerror or exc} (start one with "
+            "'ray start --head', or leave out --address and RAY_ADDRESS for a local Ray)"
+        ) from None
 
 
 def check_gpus(settings: RLlibSettings) -> None:

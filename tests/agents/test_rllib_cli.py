@@ -12,7 +12,7 @@ import agents.cli
 from agents.cli import main
 from agents.registry import agent_label, parse_agent_specs
 from agents.rllib_env import RLLIB_INSTALL, RLlibNotInstalledError, require_rllib
-from agents.rllib_training import RLlibSettings, check_rllib_config
+from agents.rllib_training import RLlibSettings, check_reachable, check_rllib_config
 from agents.training import ConfigError, config_from_dict
 
 
@@ -110,3 +110,23 @@ def test_rllib_specs():
     assert parse_agent_specs("random, rllib:a/model") == ["random", "rllib:a/model"]
     with pytest.raises(ValueError, match="given twice"):
         parse_agent_specs("rllib:a/model,rllib:b/model")
+
+
+def test_an_address_where_no_cluster_answers_is_refused():
+    import socket
+
+    with socket.socket() as free:  # a port nobody listens on once closed
+        free.bind(("127.0.0.1", 0))
+        port = free.getsockname()[1]
+    with pytest.raises(ValueError, match=f"no Ray cluster answers at 127.0.0.1:{port}"):
+        check_reachable(f"127.0.0.1:{port}", timeout_s=5)
+    check_reachable("auto")  # left to Ray: raises nothing here
+
+
+def test_an_address_where_something_listens_passes():
+    import socket
+
+    with socket.socket() as server:
+        server.bind(("127.0.0.1", 0))
+        server.listen()
+        check_reachable(f"127.0.0.1:{server.getsockname()[1]}", timeout_s=5)
