@@ -209,16 +209,24 @@ def train_rllib(
         check_reachable(address)
     torch.set_num_threads(cfg.torch_threads)
     _check_env(cfg)
-    out = Path(cfg.out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    _write_yaml(cfg, out / f"{cfg.model_name}.yaml")
 
     connected_here = not ray.is_initialized()
     if connected_here:
         # address None: a Ray started for this run.
-        ray.init(address=address, include_dashboard=False, log_to_driver=cfg.verbose > 0)
+        try:
+            ray.init(address=address, include_dashboard=False, log_to_driver=cfg.verbose > 0)
+        except ConnectionError as exc:
+            raise ConnectionError(
+                f"{exc}. A cluster with token authentication (Ray's default for "
+                "'ray start --head') needs RAY_AUTH_MODE=token here and its token in "
+                "~/.ray/auth_token"
+            ) from exc
     try:
         check_gpus(settings)
+        # Nothing is written before the cluster is reached and fits.
+        out = Path(cfg.out_dir)
+        out.mkdir(parents=True, exist_ok=True)
+        _write_yaml(cfg, out / f"{cfg.model_name}.yaml")
         register_rllib_envs()
         return _train(cfg, settings, algo_config, out)
     finally:
