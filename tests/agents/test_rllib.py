@@ -277,6 +277,12 @@ def test_a_policy_for_another_env_or_no_checkpoint_is_refused(saved_module, tmp_
     (tmp_path / "empty").mkdir()
     with pytest.raises(ValueError, match="not an RLlib checkpoint"):
         load_rllib_agent(tmp_path / "empty")
+    (tmp_path / "half").mkdir()  # a module's constructor without its weights
+    (tmp_path / "half" / "class_and_ctor_args.pkl").write_bytes(
+        (path / "class_and_ctor_args.pkl").read_bytes()
+    )
+    with pytest.raises(ValueError, match="not an RLlib checkpoint"):
+        load_rllib_agent(tmp_path / "half")
 
 
 def test_a_gpu_learner_needs_a_gpu_in_the_cluster(monkeypatch):
