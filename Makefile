@@ -52,6 +52,7 @@ lint: setup
 bench: setup
 	$(PY) benchmarks/bench_env.py
 	$(PY) benchmarks/bench_filter.py
+	$(PY) benchmarks/bench_consistency.py
 	if command -v valgrind >/dev/null; then $(PY) benchmarks/bench_instructions.py; fi
 
 clean:

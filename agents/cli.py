@@ -6,6 +6,7 @@
                       [--learner-device cpu|gpu] [--num-learners L]   (the last five: rllib)
     slam-env evaluate --agents random,frontier,infogain,ppo:PATH,rllib:PATH [--episodes 20]
                       [--seed 0] [--out DIR] [--max-steps N] [--env-option KEY=VALUE ...]
+    slam-env evaluate --agents ... --suite default|smoke [--out DIR]
     slam-env demo     [--agent SPEC] [--seed S] [--out DIR] [--no-gif] [--max-steps N]
 
     slam-env --version
@@ -159,6 +160,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--max-steps", type=_positive_int, help="episode length (default 500)")
     p.add_argument("--env-option", type=_env_option, action="append", help=env_help)
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    p.add_argument(
+        "--suite",
+        help="run a fixed suite of world settings × seeds instead (default, smoke; see "
+        "agents/suite.py); --episodes, --seed, --max-steps and --env-option do not apply",
+    )
 
     p = sub.add_parser(
         "demo",
@@ -271,6 +277,8 @@ def _run_evaluate(args: argparse.Namespace) -> int:
     from agents.evaluation import evaluate
 
     check_writable_dir(args.out)
+    if args.suite is not None:
+        return _run_suite(args)
     result = evaluate(
         args.agents,
         episodes=args.episodes,
@@ -280,6 +288,18 @@ def _run_evaluate(args: argparse.Namespace) -> int:
         max_steps=args.max_steps,
         progress=not args.no_progress,
     )
+    for name, path in result.files.items():
+        print(f"{name}: {path}")
+    return 0
+
+
+def _run_suite(args: argparse.Namespace) -> int:
+    from agents.suite import run_suite, suite_settings
+
+    suite_settings(args.suite)  # an unknown name, before anything runs
+    if args.env_option or args.max_steps is not None:
+        raise ValueError("--suite fixes its settings: drop --env-option and --max-steps")
+    result = run_suite(args.agents, args.suite, args.out, progress=not args.no_progress)
     for name, path in result.files.items():
         print(f"{name}: {path}")
     return 0

@@ -88,6 +88,17 @@ class RLlibSettings:
 def check_rllib_config(cfg: TrainConfig) -> None:
     """Raise :class:`ConfigError` for the PPO settings that RLlib would read differently
     (no Ray needed: a config is checked before a cluster is reached)."""
+    for key in ("worlds", "world_groups"):
+        if getattr(cfg, key) is not None:
+            raise ConfigError(
+                f"{key} (training across worlds) is not available with --engine rllib yet: "
+                "set it to null"
+            )
+    if cfg.env_options.get("observation", "egocentric") != "egocentric":
+        raise ConfigError(
+            "--engine rllib trains on the flat egocentric belief only: drop "
+            f"env_options.observation (got {cfg.env_options['observation']!r})"
+        )
     p = cfg.ppo
     if p.target_kl is not None:
         raise ConfigError(

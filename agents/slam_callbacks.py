@@ -62,10 +62,16 @@ def vector_columns(
     if type(first) is not InfoRow:
         return None
     vector = first.vector_info
-    # Every going row must read this vector info (a wrapper may replace any row).
-    if not all(type(infos[i]) is InfoRow and infos[i].vector_info is vector for i in going):
+    # Every going row must read this vector info at its own index (a wrapper may
+    # replace any row, or join the infos of several vector envs).
+    if not all(
+        type(infos[i]) is InfoRow and infos[i].vector_info is vector and infos[i].index == i
+        for i in going
+    ):
         return None
     required = [key for key in keys if key not in OPTIONAL_STEP_KEYS]
+    if len(vector[f"_{required[0]}"]) != len(infos):  # the rows of several vector envs
+        return None
     columns = [_column(vector, key, len(infos)) for key in keys]
     if not finished:
         return columns, [vector[f"_{key}"] for key in required]

@@ -97,6 +97,10 @@ class TrainConfig:
     eval_episodes: int = 5
     eval_seed: int = 1_000_000  # the eval env's worlds: the same at every evaluation
     verbose: int = 0  # SB3 verbosity
+    # Training across worlds (agents.world_sampling.WorldDistribution's fields): every
+    # episode draws its setting; None: every episode in the env_options' world.
+    worlds: dict[str, Any] | None = None
+    world_groups: int | None = None  # native vector envs the sub-envs are split into
     ppo: PPOParams = field(default_factory=PPOParams)
 
 
@@ -190,6 +194,31 @@ def validate_config(cfg: TrainConfig) -> TrainConfig:
         cfg.model_name,
         "a file name without '/'",
     )
+    _check(
+        cfg.worlds is None or isinstance(cfg.worlds, dict),
+        "worlds",
+        cfg.worlds,
+        "null or a mapping",
+    )
+    if cfg.worlds is not None:
+        from agents.world_sampling import WorldDistribution
+
+        try:
+            WorldDistribution.from_mapping(cfg.worlds)
+        except ValueError as exc:
+            raise ConfigError(str(exc)) from None
+        _check(cfg.vectorization == "native", "vectorization", cfg.vectorization, "native")
+    _check(
+        cfg.world_groups is None
+        or (
+            _is_int(cfg.world_groups)
+            and cfg.world_groups >= 1
+            and cfg.n_envs % cfg.world_groups == 0
+        ),
+        "world_groups",
+        cfg.world_groups,
+        "null or an int >= 1 that divides n_envs",
+    )
     _check(isinstance(cfg.ppo, PPOParams), "ppo", cfg.ppo, "a mapping of PPO hyperparameters")
     _validate_ppo(cfg.ppo)
     return cfg
@@ -279,6 +308,20 @@ def make_train_vec_env(cfg: TrainConfig, n_envs: int, seed: int) -> Any:
     from stable_baselines3.common.env_util import make_vec_env
     from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv, VecMonitor
 
+    if cfg.worlds is not None:
+        from agents.world_sampling import WorldDistribution, WorldSamplingVecEnv
+
+        return VecMonitor(
+            WorldSamplingVecEnv(
+                ENV_ID,
+                n_envs,
+                WorldDistribution.from_mapping(cfg.worlds),
+                cfg.env_options,
+                groups=min(cfg.world_groups or n_envs, n_envs),
+                seed=seed,
+                max_episode_steps=cfg.max_episode_steps,
+            )
+        )
     if cfg.vectorization == "native":
         from agents.sb3_vector import make_sb3_vec_env
 
@@ -296,19 +339,28 @@ def make_train_vec_env(cfg: TrainConfig, n_envs: int, seed: int) -> Any:
     )
 
 
-def _check_env(cfg: TrainConfig) -> None:
-    """Fail here, with the env's message, rather than in a worker process."""
+def _check_env(cfg: TrainConfig) -> str:
+    """Fail here, with the env's message, rather than in a worker process; return the
+    SB3 policy that takes the env's observation (``MlpPolicy`` for the flat egocentric
+    belief, ``MultiInputPolicy`` for a ``Dict`` such as the local one)."""
     env = make_env(cfg.env_options, cfg.max_episode_steps)
     try:
         env.reset(seed=cfg.seed)  # e.g. a random world that cannot be laid out
         space = env.observation_space
-        if not isinstance(space, gym.spaces.Box):
-            raise ConfigError(
-                "PPO trains on the flat egocentric belief: drop env_options.observation "
-                f"(got observation space {type(space).__name__})"
-            )
     finally:
         env.close()
+    local = cfg.env_options.get("observation") == "local"
+    if cfg.worlds is not None and not local:
+        raise ConfigError(
+            "training across worlds needs env_options.observation: local (the one "
+            "observation whose size does not depend on the world)"
+        )
+    if isinstance(space, gym.spaces.Dict) and not local:
+        raise ConfigError(
+            "PPO trains on the flat egocentric belief or the local observation, not on "
+            "the full covariance: set env_options.observation to egocentric or local"
+        )
+    return "MultiInputPolicy" if local else "MlpPolicy"
 
 
 def _make_callbacks(cfg: TrainConfig, out: Path, eval_env: Any) -> list[Any]:
@@ -367,7 +419,7 @@ def train(config: TrainConfig | Mapping[str, Any] | str | Path | None = None) ->
 
     cfg = as_train_config(config)
     torch.set_num_threads(cfg.torch_threads)
-    _check_env(cfg)
+    policy = _check_env(cfg)
     out = Path(cfg.out_dir)
     out.mkdir(parents=True, exist_ok=True)
     model_path = out / f"{cfg.model_name}.zip"
@@ -379,14 +431,18 @@ def train(config: TrainConfig | Mapping[str, Any] | str | Path | None = None) ->
     try:
         if cfg.eval_freq > 0:
             # One in-process sub-env: the same held-out episodes for every vectorization.
+            # The default world (with the training's options), for every vectorization
+            # and world distribution.
             eval_cfg = dataclasses.replace(
-                cfg, vectorization="native" if cfg.vectorization == "native" else "dummy"
+                cfg,
+                vectorization="native" if cfg.vectorization == "native" else "dummy",
+                worlds=None,
             )
             eval_env = make_train_vec_env(eval_cfg, 1, cfg.eval_seed)
         p = cfg.ppo
         activation = {"tanh": torch.nn.Tanh, "relu": torch.nn.ReLU}[p.activation]
         model = TimedPPO(
-            "MlpPolicy",
+            policy,
             train_env,
             learning_rate=p.learning_rate,
             n_steps=p.n_steps,

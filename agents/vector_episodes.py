@@ -81,8 +81,9 @@ def _run_batch(
         action = venv.action_space.sample()  # the finished sub-envs' actions are ignored
         while running.any():
             for k in np.flatnonzero(running).tolist():
+                row = {key: v[k] for key, v in obs.items()} if isinstance(obs, dict) else obs[k]
                 action[k] = agent.predict(
-                    obs[k], episode_start=episode_start, deterministic=deterministic
+                    row, episode_start=episode_start, deterministic=deterministic
                 )[0]
             obs, reward, terminated, truncated, info = venv.step(action)
             episode_start = False

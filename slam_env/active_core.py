@@ -25,11 +25,13 @@ from slam_env.config import EnvConfig
 from slam_env.coverage import CoverageGrid
 from slam_env.ekf import EKFSLAM
 from slam_env.ekf.batch import FilterBatch
+from slam_env.kernels.association_score import SCORE_NAMES, score_association
 from slam_env.kernels.diagnostics import DIAGNOSTICS, belief_diagnostics
 from slam_env.kernels.divergence import count_rejections, diverged
 from slam_env.kernels.observe import filter_inputs
 from slam_env.kernels.reward import active_slam_reward
 from slam_env.layouts import Layout
+from slam_env.local_observation import LocalEncoding
 from slam_env.overlay import BeliefOverlay
 from slam_env.raw_core import BatchCore, RawCore
 from slam_env.wrappers import DIVERGENCE_REJECTIONS, PASSTHROUGH_KEYS, REWARD_TERMS
@@ -70,17 +72,40 @@ class ActiveCore(BatchCore):
             max_landmarks=m,
             gate=options.gate,
             correction=options.correction,
+            data_association=options.data_association,
+            linearization=options.linearization,
+            new_landmark_sightings=options.new_landmark_sightings,
         )
         self.filters = FilterBatch(b, template, d)
+        # Where the filters associate: the true landmark of each filter landmark, the
+        # map size before the update, and the association's scores (step, episode).
+        self.associates = template.associates
+        self.slot_truth = np.full((b, m), -1, dtype=np.int64)
+        self._n_before = np.zeros(b, dtype=np.int64)
+        self.score_step = np.zeros((b, len(SCORE_NAMES)), dtype=np.int64)
+        self.score_episode = np.zeros((b, len(SCORE_NAMES)), dtype=np.int64)
         self._geometry = BeliefGeometry(m, width, height, sensor.max_range)
         self._entropy_of = BeliefEntropy(m, width, height)
         self._passthrough = tuple(k for k in PASSTHROUGH_KEYS if k in raw.observation_space.spaces)
         self.coverage: CoverageGrid | None = None
         if options.coverage:
             self.coverage = CoverageGrid.for_sensor(width, height, sensor, worlds=b)
+        self._local: dict[str, np.ndarray] | None = None
         if options.observation == "full":
-            self._encoding: FullEncoding | EgocentricEncoding = FullEncoding(self._geometry)
+            self._encoding: FullEncoding | EgocentricEncoding | LocalEncoding = FullEncoding(
+                self._geometry
+            )
             self._full = self._encoding.empty(b)
+        elif options.observation == "local":
+            assert self.coverage is not None  # ActiveSLAMOptions requires it
+            self._encoding = LocalEncoding(
+                self._geometry,
+                raw.n_landmarks,
+                self.coverage,
+                raw.beam_angles,
+                sensor.scan_range,
+            )
+            self._local = self._encoding.empty(b)
         else:
             self._encoding = EgocentricEncoding(self._geometry)
         self.observation_space = self._observation_space(raw.observation_space)
@@ -157,22 +182,32 @@ class ActiveCore(BatchCore):
             self.truth[b] = np.nan
             self.truth[b, worlds.landmark_ids[b]] = worlds.landmarks[b]
             filters.reset(b, worlds.poses[b])
+            self.slot_truth[b] = -1
+            self.score_episode[b] = 0
             self.failed[b] = False
             self.in_a_row[b] = 0
             if self.coverage is not None:
                 self.coverage.reset(b)
+            if self._local is not None:
+                self._encoding.reset(b)
             touched[b] = True
         out = raw.out
         filter_inputs(
-            out.odometry, out.detections, out.ids, touched, filters.u, filters.z, filters.ids
-        )
-        np.copyto(filters.counts, raw.det_count)
+            out.odometry, out.detections, out.ids, touched, filters.u, filters.z, filters.ids,
+            raw.det_count, filters.counts, not self.associates,
+        )  # fmt: skip
+        np.copyto(self._n_before, filters.n)
         filters.predict(stepping)
         self.failed |= stepping & (filters.error != 0)
         np.logical_and(touched, filters.counts > 0, out=self.updated)
         filters.update(self.updated)
         failed = self.updated & (filters.error != 0)
         self.failed |= failed
+        if self.associates:
+            score_association(
+                filters.assigned, filters.status, raw.det_ids, filters.counts, self._n_before,
+                self.slot_truth, touched & ~failed, self.score_step, self.score_episode,
+            )  # fmt: skip
         # A failed update changed nothing: it counts no rejection either.
         count_rejections(filters.status, filters.counts, self.updated & ~failed, self.in_a_row)
         self._observe(touched)
@@ -202,7 +237,13 @@ class ActiveCore(BatchCore):
         worlds."""
         filters, raw = self.filters, self.raw
         belief = (filters.x, filters.P, filters.n, filters.slot_to_id)
-        belief_diagnostics(*belief, raw.worlds.poses, self.truth, self.diagnostics, active)
+        # The map error pairs each filter landmark with its true one: the IDs are the
+        # truth's, unless the filter made its own.
+        truth_of_slots = self.slot_truth if self.associates else filters.slot_to_id
+        belief_diagnostics(
+            filters.x, filters.P, filters.n, truth_of_slots, raw.worlds.poses, self.truth,
+            self.diagnostics, active,
+        )  # fmt: skip
         self._entropy_of.batch(filters.P, filters.n, self.entropy, self._entropy_ok, active)
         tail, at = self._tail, 0
         for key in self._passthrough:
@@ -214,6 +255,8 @@ class ActiveCore(BatchCore):
             self.swept_fraction[:] = self.coverage.swept_fractions()
         if self.egocentric is not None:
             self._encoding.encode_batch(belief, tail, self.egocentric, self.clipped, active)
+        elif self._local is not None:
+            self._encoding.encode_batch(belief, raw.scan, self._local, self.clipped, active)
         else:
             self._encoding.encode_batch(belief, self._full, active)
             np.copyto(self.clipped, self._full.clipped)
@@ -233,8 +276,14 @@ class ActiveCore(BatchCore):
         return self._full_observation(slice(None), None)
 
     def _full_observation(self, rows: slice, pick: int | None) -> dict[str, np.ndarray]:
-        full, raw = self._full, self.raw
-        obs = {"mean": full.mean[rows], "cov": full.cov[rows], "known": full.known[rows]}
+        """The Dict observation (the full or the local belief, then the raw proximity
+        readings and the coverage) of the sub-envs ``rows``; ``pick`` one of them."""
+        raw = self.raw
+        if self._local is not None:
+            obs = {key: value[rows] for key, value in self._local.items()}
+        else:
+            full = self._full
+            obs = {"mean": full.mean[rows], "cov": full.cov[rows], "known": full.known[rows]}
         for key in self._passthrough:
             obs[key] = (raw.scan if key == "scan" else raw.out.bumper)[rows]
         if self.coverage is not None:
@@ -264,6 +313,12 @@ class ActiveCore(BatchCore):
         if self.coverage is not None:
             info["swept_fraction"] = float(self.swept_fraction[index])
         info["reward_terms"] = dict(zip(REWARD_TERMS, self.terms[index].tolist(), strict=True))
+        if self.associates:
+            for key, scores in (
+                ("association", self.score_step),
+                ("association_episode", self.score_episode),
+            ):
+                info[key] = dict(zip(SCORE_NAMES, scores[index].tolist(), strict=True))
         return info
 
     def infos(self) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
@@ -293,6 +348,12 @@ class ActiveCore(BatchCore):
         info["reward_terms"] = {
             name: self.terms[:, i].copy() for i, name in enumerate(REWARD_TERMS)
         }
+        if self.associates:
+            for key, scores in (
+                ("association", self.score_step),
+                ("association_episode", self.score_episode),
+            ):
+                info[key] = {name: scores[:, i].copy() for i, name in enumerate(SCORE_NAMES)}
         return info, masks
 
     def filter(self, index: int) -> EKFSLAM:

@@ -11,7 +11,7 @@ from typing import Any
 
 from slam_env.budget import check_budget, world_size
 from slam_env.config import EnvConfig, make_config, plain, with_defaults
-from slam_env.ekf import CORRECTION_MODES
+from slam_env.ekf import CORRECTION_MODES, DATA_ASSOCIATIONS, LINEARIZATIONS
 from slam_env.wrappers import DEFAULT_GATE, OBSERVATION_MODES, ActiveSLAMRewardWeights
 
 # Proximity beams in the active-SLAM observation, unless the options set them.
@@ -20,6 +20,9 @@ DEFAULT_SCAN_BEAMS = 16
 # landmark map does not hold, and feel when one blocks it (a corner can hide between
 # two beams). They apply unless the options set them, flat or nested.
 ACTIVE_SLAM_DEFAULTS = {"scan_beams": DEFAULT_SCAN_BEAMS, "bumper": True}
+# The observations of ActiveSLAM-v0: the belief wrapper's, and "local", which does not
+# depend on the landmark count (slam_env.local_observation; it needs the coverage).
+ACTIVE_OBSERVATION_MODES = (*OBSERVATION_MODES, "local")
 
 
 def _number(name: str, value: Any) -> float:
@@ -77,18 +80,30 @@ class ActiveSLAMOptions:
     filter_measurement_cov: Any = None
     reward_weights: Any = None
     coverage: bool = True
+    data_association: str = "known"
+    linearization: str = "standard"
+    new_landmark_sightings: int = 1
     weights: ActiveSLAMRewardWeights = field(init=False)
 
     def __post_init__(self) -> None:
         values = {f.name: plain(getattr(self, f.name)) for f in fields(self) if f.init}
-        if values["observation"] not in OBSERVATION_MODES:
+        if values["observation"] not in ACTIVE_OBSERVATION_MODES:
             raise ValueError(
-                f"observation must be one of {OBSERVATION_MODES}, got {self.observation!r}"
+                f"observation must be one of {ACTIVE_OBSERVATION_MODES}, got {self.observation!r}"
             )
         if values["correction"] not in CORRECTION_MODES:
             raise ValueError(
                 f"correction must be one of {CORRECTION_MODES}, got {self.correction!r}"
             )
+        for name, choices in (
+            ("data_association", DATA_ASSOCIATIONS),
+            ("linearization", LINEARIZATIONS),
+        ):
+            if values[name] not in choices:
+                raise ValueError(f"{name} must be one of {choices}, got {values[name]!r}")
+        sightings = values["new_landmark_sightings"]
+        if isinstance(sightings, bool) or sightings not in (1, 2):
+            raise ValueError(f"new_landmark_sightings must be 1 or 2, got {sightings!r}")
         gate = values["gate"]
         if gate is not None and not _number("gate", gate) > 0.0:
             raise ValueError(f"gate must be > 0 (a χ² threshold) or None, got {gate!r}")
@@ -101,6 +116,10 @@ class ActiveSLAMOptions:
         )
         if not isinstance(values["coverage"], bool):
             raise TypeError(f"coverage must be a bool, got {self.coverage!r}")
+        if values["observation"] == "local" and not values["coverage"]:
+            raise ValueError(
+                "observation='local' needs coverage=True: its local map shows the swept area"
+            )
         for name, value in values.items():
             object.__setattr__(self, name, value)
         object.__setattr__(self, "weights", self._weights(self.reward_weights))
@@ -132,10 +151,16 @@ class ActiveSLAMOptions:
 
     def check_against(self, config: EnvConfig) -> None:
         """``ValueError`` when the filter would take a noise-free measurement model
-        from the env (its innovation covariance would be singular)."""
+        from the env (its innovation covariance would be singular), or would need the
+        landmark IDs that the sensor does not report."""
+        sensor = config.sensor
+        if not sensor.report_ids and self.data_association == "known":
+            raise ValueError(
+                "report_ids=False hides the landmark IDs that data_association='known' needs: "
+                "choose data_association='nearest_neighbor' or 'jcbb'"
+            )
         if self.filter_measurement_cov is not None:
             return
-        sensor = config.sensor
         q = sensor.measurement_cov
         if not (q[0, 0] > 0.0 and q[1, 1] > 0.0):  # squares that underflow count as 0
             names = (
@@ -168,6 +193,7 @@ def active_config(
         filter_measurement_cov=options.filter_measurement_cov,
         reward_weights=vars(options.weights),
         num_envs=num_envs,
+        association=options.data_association != "known",
     )
     options.check_against(config)
     return config

@@ -40,32 +40,43 @@ class ActiveSLAMEnv(CoreEnv):
     :class:`slam_env.wrappers.ActiveSLAMReward` (terms in ``info["reward_terms"]``).
 
     ## Arguments
-    ``observation`` (``"egocentric"`` | ``"full"``), ``correction`` (``"sequential"`` |
+    ``observation`` (``"egocentric"`` | ``"full"`` | ``"local"``: the one whose size does
+    not depend on the world, see :mod:`slam_env.local_observation`; it needs the
+    coverage), ``correction`` (``"sequential"`` |
     ``"batch"``), ``gate`` (χ² threshold or ``None``), ``filter_alphas``,
     ``filter_control_noise``, ``filter_measurement_cov`` (a mismatched filter; default:
-    the env's true noise), ``reward_weights`` (an :class:`ActiveSLAMRewardWeights` or a
-    dict of its fields), ``coverage`` (default ``True``: a
+    the env's true noise), ``data_association`` (``"known"``: the sensor's IDs;
+    ``"nearest_neighbor"`` | ``"jcbb"``: the filter chooses, needed with
+    ``report_ids=False``), ``new_landmark_sightings`` (1, or 2: a new landmark waits
+    for a second sighting, which keeps clutter out of the map), ``linearization``
+    (``"standard"`` | ``"fej"``),
+    ``reward_weights`` (an :class:`ActiveSLAMRewardWeights` or a dict of its fields),
+    ``coverage`` (default ``True``: a
     :class:`slam_env.coverage.CoverageWrapper` adds the swept-area features, which a
     policy needs to know where it has not looked yet); every other option goes to
     :class:`LandmarksEnv`, where ``scan_beams`` defaults to 16 and ``bumper`` to
     ``True`` here: a policy needs to see obstacles, which the landmark map does not
     hold, and to feel when one blocks it (a corner can hide between two beams). The
     egocentric observation is the belief features, then the scan and the bumper, then
-    the coverage features; the full one holds them as the ``scan``, ``bumper`` and
-    ``coverage`` keys. These defaults hold whichever form the world's options take
+    the coverage features; the full and the local ones hold them as the ``scan``,
+    ``bumper`` and ``coverage`` keys. These defaults hold whichever form the world's options take
     (``fov=2.5`` or ``sensor={"fov": 2.5}``); a whole ``config`` is taken as it is.
     Options are checked (types, numpy scalars, the resource budget of
     :mod:`slam_env.budget`) before anything is built.
 
     ## Info
     The raw env's, then the belief's diagnostics (see
-    :class:`slam_env.wrappers.EKFSLAMWrapper`), ``swept_fraction`` and the reward
-    terms. A numerical breakdown of the filter is reported as ``diverged``, never
-    raised out of ``step``. ``info`` never holds NaN: a metric that is undefined is
-    absent, so ``map_rmse`` appears with the first landmark in the belief (read it with
-    ``info.get``). Absent rather than a sentinel: equal runs give equal infos, no
-    made-up value slips into an average, and Gymnasium's vector envs mark the sub-envs
-    that did not report it (``info["_map_rmse"]``).
+    :class:`slam_env.wrappers.EKFSLAMWrapper`), ``swept_fraction`` and the reward terms.
+    Where the filter associates, ``association`` (this step's ``correct``, ``wrong`` and
+    ``missed`` associations, and the map's ``duplicated`` landmarks) and
+    ``association_episode`` (the same, summed over the episode), judged against the
+    truth (:mod:`slam_env.kernels.association_score`). A numerical breakdown of the
+    filter is reported as ``diverged``, never raised out of ``step``. ``info`` never
+    holds NaN: a metric that is undefined is absent, so ``map_rmse`` appears with the
+    first landmark in the belief (read it with ``info.get``). Absent rather than a
+    sentinel: equal runs give equal infos, no made-up value slips into an average, and
+    Gymnasium's vector envs mark the sub-envs that did not report it
+    (``info["_map_rmse"]``).
     """
 
     def __init__(
@@ -79,6 +90,9 @@ class ActiveSLAMEnv(CoreEnv):
         filter_measurement_cov: np.ndarray | None = None,
         reward_weights: ActiveSLAMRewardWeights | Mapping[str, float] | None = None,
         coverage: bool = True,
+        data_association: str = "known",
+        linearization: str = "standard",
+        new_landmark_sightings: int = 1,
         **env_options: Any,
     ) -> None:
         opts = ActiveSLAMOptions(
@@ -90,6 +104,9 @@ class ActiveSLAMEnv(CoreEnv):
             filter_measurement_cov,
             reward_weights,
             coverage,
+            data_association,
+            linearization,
+            new_landmark_sightings,
         )
         check_option_names(env_options, ENV_ARGUMENTS + _OWN_ARGUMENTS)
         config = active_config(opts, env_options, num_envs=1)

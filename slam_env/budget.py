@@ -60,7 +60,7 @@ MAX_MEMORY_BYTES = 2 * 2**30
 # Dense (3 + 2·slots)² float64 arrays alive at once: the filter's Σ and scratch, the
 # entropy's floor and shifted copy; the full observation adds its padded copy, the
 # clipped ones and its space's bounds (measured 3.2 and 7.9).
-BELIEF_DENSE_COPIES = {"egocentric": 4, "full": 9}
+BELIEF_DENSE_COPIES = {"egocentric": 4, "full": 9, "local": 4}
 # The coverage grid: per offset of its (2·nx − 1)(2·ny − 1) window, the region codes and
 # their temporaries over 72 heading bins (measured ~1,900 B); per offset in the sensor's
 # footprint, the footprint tables and temporaries; one byte per cell of the padded grid.
@@ -157,12 +157,20 @@ def _coverage_geometry(config: EnvConfig, world: WorldSize) -> tuple[int, int, i
 
 
 def memory_parts(
-    config: EnvConfig, world: WorldSize, *, belief: str | None = None, coverage: bool = False
+    config: EnvConfig,
+    world: WorldSize,
+    *,
+    belief: str | None = None,
+    coverage: bool = False,
+    association: bool = False,
 ) -> dict[str, int]:
     """The bytes one env allocates for what its options scale, by part: ``detections``
-    (the raw env's mask table), ``landmarks``, ``belief`` (``"egocentric"`` or
-    ``"full"``; ``None`` for the raw env), and ``coverage_tables`` and ``coverage`` (the
-    coverage grid's tables, shared by a vector env's sub-envs, and its cells)."""
+    (the raw env's mask table), ``landmarks``, ``belief`` (an observation mode of
+    ``ActiveSLAM-v0``; ``None`` for the raw env) with ``filter_workspace`` (the update's
+    scratch, which grows with the square of the detections), ``association`` (the data
+    association's workspaces, where the filter associates), and ``coverage_tables`` and
+    ``coverage`` (the coverage grid's tables, shared by a vector env's sub-envs, and its
+    cells)."""
     rows = world.max_detections
     parts = {
         "detections": 4 * (rows + 1) * rows,
@@ -172,14 +180,24 @@ def memory_parts(
         "coverage": 0,
     }
     if belief is not None:
+        from slam_env.kernels.association import association_workspace_sizes
+        from slam_env.kernels.ekf import update_workspace_size
+
         dim = 3 + 2 * world.n_landmark_slots
         parts["belief"] = BELIEF_DENSE_COPIES[belief] * 8 * dim * dim
+        # The filter's workspaces grow with the detections a step has.
+        seen = detections_in_view(config, world)
+        parts["filter_workspace"] = 8 * update_workspace_size(dim, seen)
+        if association:
+            floats, ints = association_workspace_sizes(world.n_landmark_slots, seen)
+            parts["association"] = 8 * (floats + ints)
     if coverage:
         offsets, footprint, padded = _coverage_geometry(config, world)
         parts["coverage_tables"] = (
             COVERAGE_BYTES_PER_OFFSET * offsets + COVERAGE_BYTES_PER_FOOTPRINT_OFFSET * footprint
         )
-        parts["coverage"] = padded
+        # The local observation keeps a grid of scan-hit obstacles beside the swept one.
+        parts["coverage"] = padded * (2 if belief == "local" else 1)
     return parts
 
 
@@ -188,10 +206,16 @@ SHARED_PARTS = ("coverage_tables",)
 
 
 def memory_bytes(
-    config: EnvConfig, world: WorldSize, *, belief: str | None = None, coverage: bool = False
+    config: EnvConfig,
+    world: WorldSize,
+    *,
+    belief: str | None = None,
+    coverage: bool = False,
+    association: bool = False,
 ) -> int:
     """The bytes one env allocates for what its options scale (see :func:`memory_parts`)."""
-    return sum(memory_parts(config, world, belief=belief, coverage=coverage).values())
+    parts = memory_parts(config, world, belief=belief, coverage=coverage, association=association)
+    return sum(parts.values())
 
 
 def _numbers(value: Any) -> Iterable[tuple[str, float]]:
@@ -224,6 +248,7 @@ def check_budget(
     filter_measurement_cov: Any = None,
     reward_weights: Mapping[str, Any] | None = None,
     num_envs: int = 1,
+    association: bool = False,
 ) -> Usage:
     """Check ``config`` against the budget; ``ValueError`` names what exceeds it.
 
@@ -237,6 +262,8 @@ def check_budget(
             ``ActiveSLAM-v0``'s options of those names (magnitudes only: their types
             and shapes are the filter's and the reward's own checks).
         num_envs: sub-envs sharing the memory budget (a vector env).
+        association: whether the filter associates its observations itself
+            (``ActiveSLAM-v0``'s ``data_association`` other than ``"known"``).
     """
     world = world_size(config) if world is None else world
     moves = _check_work(config)
@@ -270,7 +297,7 @@ def check_budget(
     _check_observation_bounds(config, world, belief)
     if belief is not None:
         _check_belief_work(config, world, belief)
-    memory = _check_memory(config, world, belief, coverage, num_envs)
+    memory = _check_memory(config, world, belief, coverage, association, num_envs)
     return Usage(moves, cells, memory)
 
 
@@ -419,11 +446,16 @@ def _check_observation_bounds(config: EnvConfig, world: WorldSize, belief: str |
 
 
 def _check_memory(
-    config: EnvConfig, world: WorldSize, belief: str | None, coverage: bool, num_envs: int
+    config: EnvConfig,
+    world: WorldSize,
+    belief: str | None,
+    coverage: bool,
+    association: bool,
+    num_envs: int,
 ) -> int:
     """What the options allocate over the sub-envs: the shared parts once, the others
     once per sub-env. Returns that figure."""
-    parts = memory_parts(config, world, belief=belief, coverage=coverage)
+    parts = memory_parts(config, world, belief=belief, coverage=coverage, association=association)
     total_parts = {k: v if k in SHARED_PARTS else v * num_envs for k, v in parts.items()}
     total = sum(total_parts.values())
     if total > MAX_MEMORY_BYTES:
@@ -447,6 +479,8 @@ _MEMORY_OPTIONS = {
     "detections": "max_detections²",
     "landmarks": "n_landmarks, or a layout's landmarks and IDs",
     "belief": "(3 + 2·landmark slots)² for each observation",
+    "filter_workspace": "the detections in view², and landmark slots × detections",
+    "association": "landmark slots × detections in view, or data_association='known'",
     "coverage": "width, height and max_range, or coverage=False",
     "coverage_tables": "width, height and max_range, or coverage=False",
 }

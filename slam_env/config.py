@@ -161,12 +161,15 @@ class SensorConfig:
     scan_beams: int = 0  # proximity beams evenly spread over 360°; 0: no "scan" observation
     scan_range: float = 3.0  # m, reach of the proximity beams
     bumper: bool = False  # a contact sensor: a "bumper" observation, 1.0 after a blocked step
+    report_ids: bool = True  # False: detections carry no landmark ID (-1); the truth is in info
 
     def __post_init__(self) -> None:
         _plain_fields(self)
         _check_choice(
             "SensorConfig", "measurement_model", self.measurement_model, MEASUREMENT_MODELS
         )
+        if not isinstance(self.report_ids, bool):
+            raise TypeError(f"SensorConfig.report_ids must be a bool, got {self.report_ids!r}")
         _check_positive("SensorConfig", max_range=self.max_range, fov=self.fov)
         if self.fov > 2.0 * math.pi:
             raise ValueError(f"SensorConfig.fov must be <= 2π rad, got {self.fov}")
@@ -244,6 +247,7 @@ class FaultConfig:
     :mod:`slam_env.faults`). Probabilities are per env step."""
 
     outlier_rate: float = 0.0  # a spurious detection with a wrong (seen) landmark ID
+    clutter_rate: float = 0.0  # a spurious detection of no landmark at all (ID -1)
     scan_dropout: float = 0.0  # the whole scan is lost
     odometry_dropout: float = 0.0  # the odometry reads zero motion
     odometry_bias: tuple[float, ...] | None = None  # added to every reading, model units
@@ -251,7 +255,9 @@ class FaultConfig:
 
     def __post_init__(self) -> None:
         _plain_fields(self)
-        for name in ("outlier_rate", "scan_dropout", "odometry_dropout", "kidnap_rate"):
+        for name in (
+            "outlier_rate", "clutter_rate", "scan_dropout", "odometry_dropout", "kidnap_rate",
+        ):  # fmt: skip
             value = getattr(self, name)
             _check_finite("FaultConfig", **{name: value})
             if not 0.0 <= value <= 1.0:
@@ -266,6 +272,7 @@ class FaultConfig:
     def any(self) -> bool:
         return bool(
             self.outlier_rate
+            or self.clutter_rate
             or self.scan_dropout
             or self.odometry_dropout
             or self.kidnap_rate

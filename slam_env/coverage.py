@@ -183,6 +183,12 @@ class CoverageGrid:
         self._setup_scratch()
 
     @property
+    def padded(self) -> np.ndarray:
+        """(worlds, ny + 2·pad, nx + 2·pad) bool: every world's swept cells inside the
+        always-swept border of ``tables.pad`` cells (the grid itself, not a copy)."""
+        return self._padded
+
+    @property
     def swept(self) -> np.ndarray:
         """(ny, nx) bool, row i at y ∈ [i·cell, (i+1)·cell): the cells swept so far
         (a view; a property, so that a pickled copy views its own padded grid)."""

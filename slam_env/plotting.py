@@ -33,6 +33,7 @@ __all__ = [
     "mean_and_band",
     "plot_consistency",
     "plot_episode",
+    "plot_grouped_bars",
     "plot_metrics_over_time",
     "plot_trajectories_grid",
 ]
@@ -535,5 +536,31 @@ def plot_trajectories_grid(
         ax.set_axis_off()
     if title:
         fig.suptitle(title)
+    _save(fig, path, dpi)
+    return fig
+
+
+def plot_grouped_bars(
+    values: Mapping[str, Mapping[str, float]],
+    path: str | Path | None = None,
+    *,
+    title: str = "",
+    dpi: int = 110,
+) -> Figure:
+    """One group of bars per key of ``values`` (e.g. a suite's settings), one bar per
+    inner key (e.g. the agents, in the order of the first group); a NaN is no bar."""
+    groups = list(values)
+    series = list(next(iter(values.values()), {}))
+    fig = _new_figure((max(6.0, 0.9 * len(groups) * max(len(series), 1) ** 0.5 + 2.0), 3.6))
+    ax = fig.add_subplot()
+    width = 0.8 / max(len(series), 1)
+    x = np.arange(len(groups))
+    for k, name in enumerate(series):
+        heights = [values[g].get(name, math.nan) for g in groups]
+        ax.bar(x + (k - 0.5 * (len(series) - 1)) * width, heights, width, label=name)
+    ax.set_xticks(x, groups, rotation=30, ha="right")
+    ax.set_title(title)
+    ax.grid(axis="y", alpha=0.3)
+    ax.legend(fontsize="small", ncols=max(len(series), 1))
     _save(fig, path, dpi)
     return fig

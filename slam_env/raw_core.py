@@ -15,6 +15,7 @@ from gymnasium import spaces
 
 from slam_env.config import EnvConfig
 from slam_env.kernels.faults import (
+    CLUTTER_UNIFORMS,
     FAULT_UNIFORMS,
     KIDNAP_UNIFORM,
     FaultParams,
@@ -89,6 +90,7 @@ def raw_observation_space(
         det_high.astype(np.float64),
         float(config.reward.new_landmark_bonus),
         float(config.reward.collision_penalty),
+        bool(sensor.report_ids),
     )
     return spaces.Dict(obs_spaces), params
 
@@ -167,6 +169,7 @@ class RawCore(BatchCore):
             float(sensor.max_range),
             min(float(sensor.fov), 2.0 * math.pi - 1e-9),
             cartesian,
+            float(faults.clutter_rate),
         )
         bias = faults.odometry_bias
         self._bias = np.zeros(self.control_dim) if bias is None else np.array(bias, float)
@@ -174,7 +177,11 @@ class RawCore(BatchCore):
         # Each step's uniforms: the odometry reading, the scan, then the faults.
         self._scan_offset = odometry_uniforms(self.control_dim)
         self._fault_offset = self._scan_offset + scan_uniforms(self.n_landmarks, d)
-        width = self._fault_offset + (FAULT_UNIFORMS if self.faults_on else 0)
+        fault_width = FAULT_UNIFORMS + (CLUTTER_UNIFORMS if faults.clutter_rate > 0.0 else 0)
+        width = self._fault_offset + (fault_width if self.faults_on else 0)
+        # The true ID of each detection goes to info where the observation does not
+        # tell it: IDs hidden, or clutter among the detections.
+        self.reports_truth = not sensor.report_ids or faults.clutter_rate > 0.0
         self.blocks = RandomBlocks(num_envs, width)
         self.rngs: list[np.random.Generator | None] = [None] * num_envs
 
@@ -328,6 +335,11 @@ class RawCore(BatchCore):
         )
 
     @property
+    def beam_angles(self) -> np.ndarray:
+        """(beams,) rad: the proximity beams' directions in the robot frame."""
+        return self._beam_angles
+
+    @property
     def rewards(self) -> np.ndarray:
         """(B,) the rewards of the last step (0 for a reset)."""
         return self.out.rewards
@@ -409,7 +421,16 @@ class RawCore(BatchCore):
         }
         if self.faults_on:
             info["kidnapped"] = bool(self.kidnapped[index])
+        if self.reports_truth:
+            info["detection_ids"] = self.detection_ids(index)
         return info
+
+    def detection_ids(self, index: int | slice) -> np.ndarray:
+        """(D,) int64 (or (B, D) for a slice): the true landmark ID of each detection
+        row of the observation, -1 for clutter and padding."""
+        rows = np.arange(self.max_detections)
+        ids = np.where(rows < self.det_count[index, None], self.det_ids[index], -1)
+        return ids.reshape(-1) if isinstance(index, int) else ids
 
     def infos(self) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
         """Every sub-env's info, stacked (B, …), fresh arrays, and the masks of the keys
@@ -429,4 +450,6 @@ class RawCore(BatchCore):
         }
         if self.faults_on:
             info["kidnapped"] = self.kidnapped.copy()
+        if self.reports_truth:
+            info["detection_ids"] = self.detection_ids(slice(None))
         return info, {}

@@ -66,6 +66,12 @@ class EKFSLAMWrapper(gym.ObservationWrapper):
         gate: χ² threshold on the innovation's Mahalanobis distance (2 dof), or
             ``None`` to accept everything. Default: the 99.9% quantile.
         initial_pose_cov: (3, 3) covariance of the start pose; default zeros (known).
+        linearization: ``"standard"`` or ``"fej"`` (First-Estimates Jacobian EKF).
+
+    The filter takes the sensor's landmark IDs (known correspondences) and leaves out
+    detections without one (clutter). A filter that associates by itself, and the
+    scoring of its associations against the truth, is ``ActiveSLAM-v0``'s
+    ``data_association`` option.
 
     The raw proximity sensors, if the env has them (``scan``, ``bumper``), are passed
     through: appended to the egocentric features in that order, or as their own keys of
@@ -99,6 +105,7 @@ class EKFSLAMWrapper(gym.ObservationWrapper):
         control_noise: tuple[float, float, float, float] | None = None,
         measurement_cov: np.ndarray | None = None,
         initial_pose_cov: np.ndarray | None = None,
+        linearization: str = "standard",
     ) -> None:
         super().__init__(env)
         if observation not in OBSERVATION_MODES:
@@ -123,6 +130,7 @@ class EKFSLAMWrapper(gym.ObservationWrapper):
             initial_pose_cov=self._initial_pose_cov,
             gate=gate,
             correction=correction,
+            linearization=linearization,
         )
         width, height = base.arena_size
         self._geometry = BeliefGeometry(
@@ -240,6 +248,9 @@ class EKFSLAMWrapper(gym.ObservationWrapper):
         if not raw["mask"].any():
             return  # nothing detected (the mask is 0 or 1): no unpacking, no update
         z, ids = unpack_detections(raw)
+        labelled = ids >= 0
+        if not labelled.all():  # clutter: no landmark ID to correct with
+            z, ids = z[labelled], ids[labelled]
         try:
             result = self.filter.update(z, ids)
         except NUMERICAL_FAILURES:

@@ -30,6 +30,8 @@ CONFIGS = [
         {"outlier_rate": 0.3, "kidnap_rate": 0.01, "preset": "cluttered"},
     ),
     ({"reward_weights": {"coverage": 20.0}}, {"scan_beams": 0, "bumper": False}),
+    # FEJ, and clutter, which a filter told the IDs leaves out.
+    ({"linearization": "fej"}, {"clutter_rate": 0.3}),
 ]
 
 
@@ -41,6 +43,7 @@ def wrapper_stack(belief: dict[str, Any], world: dict[str, Any]) -> gym.Env:
         correction=belief.get("correction", "sequential"),
         gate=belief.get("gate", EKFSLAMWrapper.__init__.__defaults__[2]),
         alphas=belief.get("filter_alphas"),
+        linearization=belief.get("linearization", "standard"),
     )
     if belief.get("coverage", True):
         env = CoverageWrapper(env)

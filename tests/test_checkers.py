@@ -72,6 +72,8 @@ CASES = [
     (ACTIVE, SPARSE),
     (ACTIVE, {**SPARSE, "observation": "full", "fov": 0.5}),
     (ACTIVE, {"n_landmarks": 1, "max_range": 2.0, "motion_model": "velocity"}),
+    (ACTIVE, {**SPARSE, "observation": "local"}),
+    (ACTIVE, {"observation": "local", "preset": "rooms", "fov": 6.28}),
 ]
 
 

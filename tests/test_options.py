@@ -45,12 +45,14 @@ ALTERNATIVES = {
     "scan_beams": 8,
     "scan_range": 2.5,
     "bumper": False,
+    "report_ids": False,
     "motion_model": "velocity",
     "alphas": (0.01, 0.003, 0.02, 0.002),
     "velocity_noise": (0.01, 0.01, 0.02, 0.03),
     "new_landmark_bonus": 2.0,
     "collision_penalty": 0.2,
     "outlier_rate": 0.1,
+    "clutter_rate": 0.1,
     "scan_dropout": 0.1,
     "odometry_dropout": 0.1,
     "odometry_bias": (0.01, 0.02, 0.0),
@@ -74,8 +76,10 @@ def test_nested_is_flat(name):
     value = ALTERNATIVES[name]
     nested = {SECTION_OF[name]: {name: value}}
     assert make_config(**{name: value}) == make_config(**nested)
-    flat_env = ActiveSLAMEnv(**{name: value})
-    nested_env = ActiveSLAMEnv(**nested)
+    # Hidden IDs need a filter that associates by itself.
+    own = {"data_association": "jcbb"} if name == "report_ids" else {}
+    flat_env = ActiveSLAMEnv(**{name: value}, **own)
+    nested_env = ActiveSLAMEnv(**nested, **own)
     assert flat_env.config == nested_env.config
     assert getattr(flat_env.config, SECTION_OF[name]).__dict__[name] == value
     assert flat_env.observation_space == nested_env.observation_space
@@ -243,3 +247,18 @@ def test_a_noise_free_sensor_needs_a_filter_covariance(options, names):
         ActiveSLAMOptions().check_against(config)
     ActiveSLAMOptions(filter_measurement_cov=np.eye(2)).check_against(config)
     ActiveSLAMOptions().check_against(make_config(range_std=1e-100, bearing_std=1e-100))
+
+
+def test_hidden_ids_need_a_filter_that_associates():
+    with pytest.raises(ValueError, match="report_ids=False hides the landmark IDs"):
+        ActiveSLAMEnv(report_ids=False)
+    for association in ("nearest_neighbor", "jcbb"):
+        assert ActiveSLAMEnv(report_ids=False, data_association=association).filter.associates
+
+
+@pytest.mark.parametrize(
+    ("name", "value"), [("data_association", "greedy"), ("linearization", "exact")]
+)
+def test_the_filter_options_refuse_unknown_choices(name, value):
+    with pytest.raises(ValueError, match=f"{name} must be one of"):
+        ActiveSLAMEnv(**{name: value})

@@ -40,6 +40,7 @@ CONFIGS = [
     (ACTIVE, {"observation": "full", "n_landmarks": 6, "outlier_rate": 0.2, "kidnap_rate": 0.01}),
     (ACTIVE, {"motion_model": "velocity", "measurement_model": "cartesian"}),
     (ACTIVE, {"action_type": "discrete", "correction": "batch", "preset": "rooms"}),
+    (ACTIVE, {"observation": "local", "n_landmarks": 6, "outlier_rate": 0.2}),
 ]
 
 

@@ -7,15 +7,18 @@ from typing import Any
 
 import numpy as np
 
+from slam_env.ekf.chi2 import joint_gates
 from slam_env.ekf.filter import EKFSLAM
-from slam_env.kernels import ekf
+from slam_env.kernels import association, ekf
 
 
 class FilterBatch:
     """The state of B filters configured as ``template`` (an :class:`EKFSLAM`, whose own
     state is not used): ``x (B, dmax)``, ``P (B, dmax, dmax)``, ``n``, ``id_to_slot``,
-    ``slot_to_id`` and ``n_rejected``, laid out as the kernels take them, with the
-    inputs and outputs of a step. :meth:`predict` and :meth:`update` step the filters
+    ``slot_to_id``, ``n_rejected``, ``first`` and ``tentative``, laid out as the
+    kernels take them,
+    with the inputs and outputs of a step. :meth:`predict` and :meth:`update` step the
+    filters
     whose mask is set, each atomically (a filter whose step fails keeps its state and
     gets an error code in :attr:`error`); :meth:`filter` is filter b as an
     :class:`EKFSLAM` over the same storage. The inputs are the caller's to fill and are
@@ -37,6 +40,8 @@ class FilterBatch:
         self.id_to_slot = np.full((b, m), -1, dtype=np.int64)
         self.slot_to_id = np.full((b, m), -1, dtype=np.int64)
         self.n_rejected = np.zeros(b, dtype=np.int64)
+        self.first = np.zeros((b, dmax))
+        self.tentative = np.full((b, association.TENTATIVE_ROWS, association.TENTATIVE_WIDTH), -1.0)
         self.params = np.repeat(template._params, b, axis=0)
         self.modes = np.repeat(template._modes, b, axis=0)
         # The inputs of a step (controls; observations, their IDs and counts), its
@@ -48,13 +53,37 @@ class FilterBatch:
         self.status = np.zeros((b, d), dtype=np.int8)
         self.nis = np.zeros((b, d))
         self.error = np.zeros(b, dtype=np.int64)
-        self._work = np.empty(ekf.update_workspace_size(dmax, d))
+        # Where the filters associate: the landmark each observation is given to (the
+        # IDs the update uses), each one's smallest D², the association's gates.
+        self.associates = template.associates
+        self.assigned = np.full((b, d), -1, dtype=np.int64)
+        self.nearest = np.full((b, d), np.inf)
+        if self.associates:
+            self._joint_gates = joint_gates(template.association_gates[0], d)
+            self._held = np.empty_like(self.tentative)
+        # The workspaces grow with the most observations an update has had (a step
+        # sees far fewer landmarks than the padded array has rows).
+        self._room = -1
+        self._grow_workspaces(min(d, 8))
         self._views: dict[int, EKFSLAM] = {}
+
+    def _grow_workspaces(self, max_obs: int) -> None:
+        if max_obs <= self._room:
+            return
+        self._room = max_obs
+        self._work = np.empty(ekf.update_workspace_size(self.x.shape[1], max_obs))
+        if self.associates:
+            sizes = association.association_workspace_sizes(self.template.max_landmarks, max_obs)
+            floats, ints = sizes
+            self._assoc_work = (np.empty(floats), np.empty(ints, dtype=np.int64))
 
     @property
     def storage(self) -> tuple[np.ndarray, ...]:
-        """The six state arrays, in :attr:`EKFSLAM._STATE` order."""
-        return self.x, self.P, self.n, self.id_to_slot, self.slot_to_id, self.n_rejected
+        """The state arrays, in :attr:`EKFSLAM._STATE` order."""
+        return (
+            self.x, self.P, self.n, self.id_to_slot, self.slot_to_id, self.n_rejected,
+            self.first, self.tentative,
+        )  # fmt: skip
 
     def filter(self, index: int) -> EKFSLAM:
         """Filter ``index`` as an :class:`EKFSLAM` whose state is row ``index`` of this
@@ -72,17 +101,34 @@ class FilterBatch:
 
     def predict(self, mask: np.ndarray) -> None:
         """Predict the filters of ``mask`` (B,) bool with their controls :attr:`u`."""
-        ekf.predict(self.x, self.P, self.n, self.u, self.params, self.modes, mask, self.error)
+        ekf.predict(
+            self.x, self.P, self.n, self.first, self.u, self.params, self.modes, mask, self.error
+        )  # fmt: skip
 
     def update(self, mask: np.ndarray) -> None:
         """Update the filters of ``mask`` with their first :attr:`counts` observations
-        :attr:`z` of landmarks :attr:`ids`; per observation :attr:`status` and
-        :attr:`nis`."""
+        :attr:`z` of landmarks :attr:`ids` (where the filters associate, of the
+        landmarks they choose: :attr:`assigned`, each one's smallest D² in
+        :attr:`nearest`); per observation :attr:`status` and :attr:`nis`."""
+        self._grow_workspaces(min(int(self.counts.max(initial=0)), self.z.shape[1]))
+        ids = self.ids
+        if self.associates:
+            associated = association.associate(
+                self.x, self.P, self.n, self.params, self.modes, self._joint_gates, self.z,
+                self.counts, mask, self.assigned, self.nearest, self.tentative, self._held,
+                *self._assoc_work,
+            )  # fmt: skip
+            if not associated:
+                raise RuntimeError("the association's workspace is too small")  # a bug here
+            ids = self.assigned
         ekf.update(
             self.x, self.P, self.n, self.id_to_slot, self.slot_to_id, self.n_rejected,
-            self.params, self.modes, self.z, self.ids, self.counts, mask,
+            self.first, self.params, self.modes, self.z, ids, self.counts, mask,
             self.status, self.nis, self.error, self._work,
         )  # fmt: skip
+        if self.associates:  # the tentative sightings of the updates that succeeded
+            kept = mask & (self.error == 0)
+            self.tentative[kept] = self._held[kept]
 
     # Pickling: the views are rebuilt on demand over the unpickled arrays.
     def __getstate__(self) -> dict[str, Any]:

@@ -132,13 +132,15 @@ def bad_control(u: np.ndarray) -> ValueError:
 
 def observations(z: Any, ids: Any) -> tuple[np.ndarray, np.ndarray]:
     """z as a C-contiguous float64 (1, k, 2) array (a batch of one; a view of z where
-    it can be) and the IDs as a fresh int64 (1, k) array. Their values (finite, IDs in
-    range and distinct) are checked by the kernel before it changes anything;
-    :func:`bad_observations` explains a refusal."""
+    it can be) and the IDs as a fresh int64 (1, k) array (all -1 for ``None``). Their
+    values (finite, IDs in range and distinct) are checked by the kernel before it
+    changes anything; :func:`bad_observations` explains a refusal."""
     if not (type(z) is np.ndarray and z.dtype is _FLOAT64):
         z = real_array(z, "z", "a (k, 2) array")
     if z.ndim != 2 or z.shape[1] != 2:
         raise ValueError(f"z must have shape (k, 2), got {z.shape}")
+    if ids is None:  # observations without IDs
+        ids = np.full(z.shape[0], -1, dtype=_INT64)
     arr = ids if type(ids) is np.ndarray else np.asarray(ids)
     if arr.ndim != 1 or arr.shape[0] != z.shape[0]:
         raise ValueError(

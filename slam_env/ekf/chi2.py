@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.stats import chi2
 
-__all__ = ["chi2_gate", "chi2_ppf"]
+__all__ = ["chi2_gate", "chi2_ppf", "joint_gates"]
 
 
 def chi2_ppf(p: float, dof: int) -> float:
@@ -23,3 +23,13 @@ def chi2_gate(probability: float = 0.99, dof: int = 2) -> float:
     ``νᵀS⁻¹ν`` above it is rejected. A correct, noise-matched filter rejects a
     fraction ``1 − probability`` of good observations (seed 004 validation)."""
     return chi2_ppf(probability, dof)
+
+
+def joint_gates(match_gate: float, max_obs: int) -> np.ndarray:
+    """JCBB's joint χ² thresholds for 0..max_obs pairings (2 dof each), at the
+    probability of the individual ``match_gate`` (2 dof)."""
+    p = float(chi2.cdf(match_gate, 2))
+    gates = np.full(max_obs + 1, np.inf)
+    if 0.0 < p < 1.0:
+        gates[1:] = chi2.ppf(p, 2 * np.arange(1, max_obs + 1))
+    return gates

@@ -1,4 +1,5 @@
-"""EKF-SLAM with known correspondences (seeds 000 and 004): the standalone filter.
+"""EKF-SLAM (seeds 000 and 004): the standalone filter, with known correspondences or
+its own data association, and the standard or First-Estimates Jacobian linearisation.
 
 :class:`EKFSLAM` is one filter, usable without gymnasium or pymunk (a robot's logs, a
 notebook). It holds its state as a batch of one and runs the same compiled kernels as
@@ -26,6 +27,18 @@ Costs (``d = 3 + 2n``)
 No dense ``d×d`` G, R or H is ever built, nothing larger than S is factorised, and
 P stays exactly symmetric.
 
+Correspondences and linearisation
+---------------------------------
+``data_association="known"`` (the seeds) takes each observation's landmark ID from the
+caller. ``"nearest_neighbor"`` and ``"jcbb"`` take observations without IDs and choose
+the landmarks themselves (:mod:`slam_env.kernels.association`): individual
+compatibility within ``match_gate``, or Joint Compatibility Branch and Bound; an
+observation compatible with no landmark starts a new one only if none lies within the
+wider ``new_landmark_gate``, and is discarded otherwise. The filter then owns the
+identities: a landmark's ID is its slot. ``linearization="fej"`` evaluates the
+Jacobians at the first estimates (:mod:`slam_env.kernels.ekf`); ``"standard"`` is the
+seeds' filter.
+
 Atomic calls
 ------------
 Whatever happens inside ``predict``/``update``, a call either completes or leaves the
@@ -44,17 +57,21 @@ from typing import Any
 import numpy as np
 
 from slam_env.ekf import checks
-from slam_env.ekf.chi2 import chi2_gate, chi2_ppf
+from slam_env.ekf.chi2 import chi2_gate, chi2_ppf, joint_gates
 from slam_env.ekf.models import MEASUREMENT_MODELS, MOTION_MODELS
-from slam_env.kernels import ekf
+from slam_env.kernels import association, ekf
 from slam_env.kernels.models import wrap_angle
 
 __all__ = [
     "CORRECTED",
     "CORRECTION_MODES",
+    "DATA_ASSOCIATIONS",
+    "DISCARDED",
     "EKFSLAM",
     "INITIALISED",
+    "LINEARIZATIONS",
     "REJECTED",
+    "TENTATIVE",
     "Status",
     "UpdateResult",
     "chi2_gate",
@@ -64,6 +81,19 @@ __all__ = [
 
 CORRECTION_MODES = ("sequential", "batch")
 _CORRECTION_CODES = {"sequential": ekf.SEQUENTIAL, "batch": ekf.BATCH}
+_ASSOCIATION_CODES = {
+    "known": ekf.KNOWN,
+    "nearest_neighbor": ekf.NEAREST_NEIGHBOR,
+    "jcbb": ekf.JCBB,
+}
+DATA_ASSOCIATIONS = tuple(_ASSOCIATION_CODES)
+_LINEARIZATION_CODES = {"standard": ekf.STANDARD, "fej": ekf.FEJ}
+LINEARIZATIONS = tuple(_LINEARIZATION_CODES)
+# The association's gates by default: a landmark within the 99.9% χ² region of an
+# observation is compatible with it (as ActiveSLAM-v0's validation gate accepts it);
+# one within the 99.999% region forbids starting a new landmark there.
+MATCH_PROBABILITY = 0.999
+NEW_LANDMARK_PROBABILITY = 0.99999
 
 
 class Status(enum.IntEnum):
@@ -74,28 +104,39 @@ class Status(enum.IntEnum):
     REJECTED = 2  # a known landmark that failed the χ² gate (or that h cannot
     # linearise: range-bearing with the landmark estimated on the robot): not
     # applied, counted in n_rejected
+    DISCARDED = 3  # the association gave it to no landmark (ambiguous, or no room)
+    TENTATIVE = 4  # held as the first sighting of a possible new landmark
 
 
 CORRECTED = Status.CORRECTED
 INITIALISED = Status.INITIALISED
 REJECTED = Status.REJECTED
+DISCARDED = Status.DISCARDED
+TENTATIVE = Status.TENTATIVE
 
 
 @dataclass(frozen=True)
 class UpdateResult:
     """Per-observation outcome of one ``EKFSLAM.update``, in the order given.
 
-    ``ids: (k,) int64`` the landmark IDs; ``status: (k,) int8`` :class:`Status` codes;
+    ``ids: (k,) int64`` the landmark each observation was given to: the ID the caller
+    gave (known correspondences) or the one the association chose (``-1``: discarded,
+    ``-2``: held as tentative);
+    ``status: (k,) int8`` :class:`Status` codes;
     ``nis: (k,) float64`` the normalised innovation squared ``νᵀS⁻¹ν`` of each
     correction or rejection (``nan`` for an initialised landmark, and for a landmark
     the model cannot linearise, e.g. one estimated exactly on the robot).
     Sequential mode evaluates ν and S at the belief corrected by the observations
     before it; batch mode at the belief before the update (S its own 2×2 block).
+    ``nearest: (k,) float64`` where the filter associates, each observation's smallest
+    squared Mahalanobis distance D² to a landmark of the belief before the update
+    (``inf`` with none); ``nan`` with known correspondences.
     """
 
     ids: np.ndarray
     status: np.ndarray
     nis: np.ndarray
+    nearest: np.ndarray
 
     def __len__(self) -> int:
         return int(self.ids.shape[0])
@@ -115,6 +156,16 @@ class UpdateResult:
         """(k,) bool: observations rejected by the gate (not applied)."""
         return self.status == Status.REJECTED
 
+    @property
+    def discarded(self) -> np.ndarray:
+        """(k,) bool: observations the association gave to no landmark."""
+        return self.status == Status.DISCARDED
+
+    @property
+    def tentative(self) -> np.ndarray:
+        """(k,) bool: observations held as the first sighting of a new landmark."""
+        return self.status == Status.TENTATIVE
+
 
 # What a kernel's error code means to the caller of EKFSLAM.
 _NUMERICAL_ERRORS = {
@@ -132,19 +183,32 @@ def kernel_config(
     noise: tuple[float, float, float, float],
     measurement_cov: np.ndarray,
     gate: float | None,
+    data_association: str = "known",
+    linearization: str = "standard",
+    association_gates: tuple[float, float] = (np.inf, np.inf),
+    new_landmark_sightings: int = 1,
 ) -> tuple[np.ndarray, np.ndarray]:
     """One filter's configuration as the kernels of :mod:`slam_env.kernels.ekf` take
-    it: its row of ``params`` ((8,) float64: the motion noise (α1..α4, or σp, σθ, βp,
-    βθ), Q00, Q01, Q11, the gate, ``inf`` for none) and of ``modes`` ((3,) int64: the
-    motion, measurement and correction codes). Arguments as :class:`EKFSLAM`'s, already
-    checked (``noise`` the parameters of the chosen motion model)."""
+    it: its row of ``params`` ((11,) float64: the motion noise (α1..α4, or σp, σθ, βp,
+    βθ), Q00, Q01, Q11, the gate, ``inf`` for none, the association's match and
+    new-landmark gates and the sightings a new landmark needs) and of ``modes`` ((5,)
+    int64: the motion, measurement, correction, association and linearisation codes).
+    Arguments as :class:`EKFSLAM`'s, already checked (``noise`` the parameters of the
+    chosen motion model)."""
     Q = measurement_cov
-    params = np.array([*noise, Q[0, 0], Q[0, 1], Q[1, 1], np.inf if gate is None else gate])
+    params = np.array(
+        [
+            *noise, Q[0, 0], Q[0, 1], Q[1, 1], np.inf if gate is None else gate,
+            *association_gates, new_landmark_sightings,
+        ]
+    )  # fmt: skip
     modes = np.array(
         [
             MOTION_MODELS[motion_model].code,
             MEASUREMENT_MODELS[measurement_model].code,
             _CORRECTION_CODES[correction],
+            _ASSOCIATION_CODES[data_association],
+            _LINEARIZATION_CODES[linearization],
         ],
         dtype=np.int64,
     )
@@ -179,9 +243,24 @@ class EKFSLAM:
         correction: ``"sequential"`` (one observation at a time, re-linearised at the
             current mean) or ``"batch"`` (all known observations stacked, each gated
             on its own first).
+        data_association: ``"known"`` (the caller gives each observation's landmark
+            ID), ``"nearest_neighbor"`` or ``"jcbb"`` (the filter chooses; see the
+            module's docstring).
+        match_gate, new_landmark_gate: the association's χ² thresholds on an
+            observation's D² to a landmark (2 dof): compatible within ``match_gate``
+            (default :func:`chi2_gate` (0.999)); a new landmark only where every
+            landmark lies beyond ``new_landmark_gate`` (default 0.99999), which must be
+            at least ``match_gate``. JCBB's joint test is at ``match_gate``'s
+            probability, 2 dof per pairing.
+        new_landmark_sightings: 1 (a new landmark starts at its first sighting) or 2
+            (it is held as tentative until a second, consistent sighting: what keeps
+            clutter out of the map; see :mod:`slam_env.kernels.association`).
+        linearization: ``"standard"`` (the seeds) or ``"fej"`` (First-Estimates
+            Jacobian EKF).
 
     Use
-        ``predict(u)``, ``update(z, ids) -> UpdateResult``; read the belief with
+        ``predict(u)``, ``update(z, ids) -> UpdateResult`` (``ids`` None where the
+        filter associates); read the belief with
         ``mean``/``cov`` (``(3+2n,)``/``(3+2n, 3+2n)``), ``pose``/``pose_cov``,
         ``landmark(id)``, ``landmark_means()``/``landmark_covs()`` (state order),
         ``state_to_id``/``id_to_state``. Every read returns a fresh copy, except
@@ -205,6 +284,11 @@ class EKFSLAM:
         initial_pose_cov: Any = None,
         gate: float | None = None,
         correction: str = "sequential",
+        data_association: str = "known",
+        linearization: str = "standard",
+        match_gate: float | None = None,
+        new_landmark_gate: float | None = None,
+        new_landmark_sightings: int = 1,
     ) -> None:
         if motion_model not in MOTION_MODELS:
             raise ValueError(
@@ -217,6 +301,20 @@ class EKFSLAM:
             )
         if correction not in CORRECTION_MODES:
             raise ValueError(f"correction must be one of {CORRECTION_MODES}, got {correction!r}")
+        if data_association not in DATA_ASSOCIATIONS:
+            raise ValueError(
+                f"data_association must be one of {DATA_ASSOCIATIONS}, got {data_association!r}"
+            )
+        if linearization not in LINEARIZATIONS:
+            raise ValueError(
+                f"linearization must be one of {LINEARIZATIONS}, got {linearization!r}"
+            )
+        gates = self._check_association_gates(match_gate, new_landmark_gate)
+        sightings = new_landmark_sightings
+        if isinstance(sightings, (bool, np.bool_)) or sightings not in (1, 2):
+            raise ValueError(
+                f"new_landmark_sightings must be 1 or 2, got {new_landmark_sightings!r}"
+            )
         self._alphas = None if alphas is None else checks.noise_params(alphas, "alphas")
         self._control_noise = (
             None if control_noise is None else checks.noise_params(control_noise, "control_noise")
@@ -244,6 +342,10 @@ class EKFSLAM:
         self._measurement_name = measurement_model
         self._correction = correction
         self._gate = gate
+        self._association = data_association
+        self._linearization = linearization
+        self._association_gates = gates
+        self._sightings = int(new_landmark_sightings)
         self._Q = Q
         self._N = int(max_landmarks)
         self._initial_pose = pose0
@@ -257,8 +359,30 @@ class EKFSLAM:
         self._id_to_slot_b = np.full((1, self._N), -1, dtype=np.int64)
         self._slot_to_id_b = np.full((1, self._N), -1, dtype=np.int64)
         self._n_rejected_b = np.zeros(1, dtype=np.int64)
+        self._firstb = np.zeros((1, dmax))
+        self._tentativeb = np.zeros((1, association.TENTATIVE_ROWS, association.TENTATIVE_WIDTH))
         self._setup()
         self._set_prior(pose0, cov0)
+
+    @staticmethod
+    def _check_association_gates(match: Any, new: Any) -> tuple[float, float]:
+        gates = []
+        for name, value, probability in (
+            ("match_gate", match, MATCH_PROBABILITY),
+            ("new_landmark_gate", new, NEW_LANDMARK_PROBABILITY),
+        ):
+            if value is None:
+                value = chi2_gate(probability)
+            value = checks.number(value, name)
+            if value <= 0.0:
+                raise ValueError(f"{name} must be > 0 (a χ² threshold), got {value}")
+            gates.append(value)
+        if gates[1] < gates[0]:
+            raise ValueError(
+                f"new_landmark_gate ({gates[1]:g}) must be at least match_gate ({gates[0]:g}): "
+                "a new landmark starts only where no landmark is compatible"
+            )
+        return gates[0], gates[1]
 
     # ------------------------------------------------------------------ setup
     def _setup(self) -> None:
@@ -272,7 +396,16 @@ class EKFSLAM:
         self._u_row = self._u[0]  # the control, written in place by predict
         noise = self._alphas if self._motion_name == "odometry" else self._control_noise
         params, modes = kernel_config(
-            self._motion_name, self._measurement_name, self._correction, noise, self._Q, self._gate
+            self._motion_name,
+            self._measurement_name,
+            self._correction,
+            noise,
+            self._Q,
+            self._gate,
+            self._association,
+            self._linearization,
+            self._association_gates,
+            self._sightings,
         )
         self._params = params[None]
         self._modes = modes[None]
@@ -284,19 +417,29 @@ class EKFSLAM:
         # The kernels' arguments that never change, packed once (a call then pays for
         # one tuple, not for a dozen attribute reads).
         self._predict_args = (
-            self._xb, self._Pb, self._nb, self._u, self._params, self._modes, self._mask,
-            self._error,
+            self._xb, self._Pb, self._nb, self._firstb, self._u, self._params, self._modes,
+            self._mask, self._error,
         )  # fmt: skip
         self._update_state = (
             self._xb, self._Pb, self._nb, self._id_to_slot_b, self._slot_to_id_b,
-            self._n_rejected_b, self._params, self._modes,
+            self._n_rejected_b, self._firstb, self._params, self._modes,
         )  # fmt: skip
 
+    @property
+    def associates(self) -> bool:
+        """Whether the filter chooses the landmarks of its observations itself."""
+        return self._association != "known"
+
     def _grow_workspace(self, max_obs: int) -> None:
-        """Room in the kernel's workspace for ``max_obs`` observations per update."""
+        """Room in the kernels' workspaces for ``max_obs`` observations per update."""
         if max_obs > self._max_obs:
             self._max_obs = max_obs
             self._work = np.empty(ekf.update_workspace_size(self._xb.shape[1], max_obs))
+            if self.associates:
+                floats, ints = association.association_workspace_sizes(self._N, max_obs)
+                self._assoc_work = (np.empty(floats), np.empty(ints, dtype=np.int64))
+                self._held = np.empty_like(self._tentativeb)
+                self._joint_gates = joint_gates(self._association_gates[0], max_obs)
 
     @staticmethod
     def _check_prior(pose: Any, cov: Any) -> tuple[np.ndarray, np.ndarray]:
@@ -307,6 +450,8 @@ class EKFSLAM:
 
     def _set_prior(self, pose: np.ndarray, cov: np.ndarray) -> None:
         self._x[:3] = pose
+        self._firstb[0, :3] = pose
+        self._tentativeb[..., association.AGE] = -1.0  # no tentative sightings
         self._P[:3, :3] = cov
         self._nb[0] = 0
         self._n_rejected_b[0] = 0
@@ -339,6 +484,23 @@ class EKFSLAM:
     @property
     def gate(self) -> float | None:
         return self._gate
+
+    @property
+    def data_association(self) -> str:
+        return self._association
+
+    @property
+    def linearization(self) -> str:
+        return self._linearization
+
+    @property
+    def new_landmark_sightings(self) -> int:
+        return self._sightings
+
+    @property
+    def association_gates(self) -> tuple[float, float]:
+        """(match_gate, new_landmark_gate), the association's χ² thresholds."""
+        return self._association_gates
 
     @property
     def measurement_cov(self) -> np.ndarray:
@@ -454,18 +616,26 @@ class EKFSLAM:
         return (
             f"EKFSLAM(motion_model={self._motion_name!r}, "
             f"measurement_model={self._measurement_name!r}, correction={self._correction!r}, "
+            f"data_association={self._association!r}, linearization={self._linearization!r}, "
             f"n_landmarks={self.n_landmarks}, max_landmarks={self._N}, gate={self._gate})"
         )
 
     # ------------------------------------------------------------------ copy / pickle
     # The state; everything else in __dict__ is configuration (shared by copies, which
     # never mutate it) or rebuilt by _setup.
-    _STATE = ("_xb", "_Pb", "_nb", "_id_to_slot_b", "_slot_to_id_b", "_n_rejected_b")
+    _STATE = (
+        "_xb", "_Pb", "_nb", "_id_to_slot_b", "_slot_to_id_b", "_n_rejected_b", "_firstb",
+        "_tentativeb",
+    )  # fmt: skip
     _CONFIG = (
         "_motion_name",
         "_measurement_name",
         "_correction",
         "_gate",
+        "_association",
+        "_linearization",
+        "_association_gates",
+        "_sightings",
         "_Q",
         "_N",
         "_alphas",
@@ -482,7 +652,9 @@ class EKFSLAM:
         d = self.dim
         new._Pb = np.empty_like(self._Pb)
         new._Pb[0, :d, :d] = self._Pb[0, :d, :d]
-        for name in ("_xb", "_nb", "_id_to_slot_b", "_slot_to_id_b", "_n_rejected_b"):
+        for name in self._STATE:
+            if name == "_Pb":
+                continue
             setattr(new, name, getattr(self, name).copy())
         new._setup()
         return new
@@ -490,8 +662,9 @@ class EKFSLAM:
     __copy__ = copy
 
     def _view_over(self, storage: tuple[np.ndarray, ...]) -> EKFSLAM:
-        """A filter with this one's configuration over ``storage``: the six state
-        arrays ``(x, P, n, id_to_slot, slot_to_id, n_rejected)`` of a batch of one, e.g.
+        """A filter with this one's configuration over ``storage``: the state arrays of
+        :attr:`_STATE` (``x, P, n, id_to_slot, slot_to_id, n_rejected, first,
+        tentative``) of a batch of one, e.g.
         views of row b of :class:`slam_env.ekf.batch.FilterBatch`'s (shared, not
         copied: what one does, the other sees). Pickling or copying it copies the
         state, as for any filter."""
@@ -539,29 +712,55 @@ class EKFSLAM:
         if error[0]:
             self._raise(int(error[0]), "predict", lambda: checks.bad_control(u_row))
 
-    def update(self, z: Any, ids: Any) -> UpdateResult:
+    def update(self, z: Any, ids: Any = None) -> UpdateResult:
         """Fold in k observations ``z: (k, 2)`` of landmarks ``ids: (k,)``.
 
-        Known landmarks are corrected first, in the given order (sequentially,
-        re-linearised each time, or stacked in batch mode), each passing the χ² gate
-        if one is set; then new landmarks are initialised from the corrected belief,
-        in the given order (seed 000 §2.2). Returns an :class:`UpdateResult`.
+        With known correspondences ``ids`` are required. A filter that associates
+        chooses the landmarks itself (at the belief before the update) and takes
+        ``ids`` None or all ``-1`` (a sensor that reports no IDs). Known landmarks are
+        corrected first, in the given order (sequentially, re-linearised each time,
+        or stacked in batch mode), each passing the χ² gate if one is set; then new
+        landmarks are initialised from the corrected belief, in the given order (seed
+        000 §2.2). Returns an :class:`UpdateResult`.
         """
-        zb, idb = checks.observations(z, ids)
+        if self.associates:
+            zb, idb = checks.observations(z, ids)
+            if (idb != -1).any():
+                raise ValueError(
+                    f"data_association={self._association!r} chooses the landmarks itself: "
+                    f"ids must be None or all -1, got {idb[0].tolist()}"
+                )
+        elif ids is None:
+            raise TypeError("ids are required with data_association='known'")
+        else:
+            zb, idb = checks.observations(z, ids)
         k = idb.shape[1]
         if k > self._max_obs:
             self._grow_workspace(k)
         status = np.empty((1, k), dtype=np.int8)
         nis = np.empty((1, k))
+        nearest = np.full((1, k), np.nan)
         count = self._count
         count[0] = k
+        if self.associates:
+            if not np.isfinite(zb).all():
+                raise checks.bad_observations(zb[0], np.zeros(k, dtype=np.int64), self._N)
+            associated = association.associate(
+                self._xb, self._Pb, self._nb, self._params, self._modes, self._joint_gates,
+                zb, count, self._mask, idb, nearest, self._tentativeb, self._held,
+                *self._assoc_work,
+            )  # fmt: skip
+            if not associated:
+                raise RuntimeError("the association's workspace is too small")  # a bug here
         error = self._error
         ekf.update(*self._update_state, zb, idb, count, self._mask, status, nis, error, self._work)
         if error[0]:
             self._raise(
                 int(error[0]), "update", lambda: checks.bad_observations(zb[0], idb[0], self._N)
             )
-        return UpdateResult(idb[0], status[0], nis[0])
+        if self.associates:
+            self._tentativeb[...] = self._held  # kept only once the update has succeeded
+        return UpdateResult(idb[0], status[0], nis[0], nearest[0])
 
     @staticmethod
     def _raise(code: int, call: str, bad_input: Any) -> None:

@@ -65,7 +65,8 @@ def belief_diagnostics(
     :class:`slam_env.kernels.belief_state.BeliefBatch`) against its true pose
     ``true_pose[b]`` (x, y, θ) and landmark positions ``true_landmarks[b, id]``
     ((B, M, 2), by landmark ID), into ``out[:, b]`` ((len(DIAGNOSTICS), B) float64,
-    a row per diagnostic)."""
+    a row per diagnostic). A slot whose ID is -1 (a landmark the filter started from
+    clutter) has no true position and is left out of the map error."""
     for b in range(x.shape[0]):
         if not active[b]:
             continue
@@ -84,9 +85,13 @@ def belief_diagnostics(
             out[MAP_RMSE, b] = EMPTY_MAP_RMSE
             continue
         total = 0.0
+        matched = 0
         for i in range(k):
             lid = slot_to_id[b, i]
+            if lid < 0:  # a landmark started from clutter: no true position
+                continue
             dx = x[b, 3 + 2 * i] - true_landmarks[b, lid, 0]
             dy = x[b, 4 + 2 * i] - true_landmarks[b, lid, 1]
             total += dx * dx + dy * dy
-        out[MAP_RMSE, b] = math.sqrt(total / k)
+            matched += 1
+        out[MAP_RMSE, b] = math.sqrt(total / matched) if matched else EMPTY_MAP_RMSE

@@ -1,5 +1,6 @@
-"""Batched EKF-SLAM (known correspondences): prediction and update of B filters in one
-call each, over the state arrays the vector env holds for its worlds.
+"""Batched EKF-SLAM: prediction and update of B filters in one call each, over the
+state arrays the vector env holds for its worlds. The correspondences are given (the
+landmark IDs, or the choice of :mod:`slam_env.kernels.association`).
 
 State of B filters with room for M landmarks (``dmax = 3 + 2M``)
     x (B, dmax) float64            means; world b's live part is ``x[b, :3 + 2 n[b]]``
@@ -8,17 +9,34 @@ State of B filters with room for M landmarks (``dmax = 3 + 2M``)
     id_to_slot (B, M) int64        slot of each landmark ID, -1 if unknown
     slot_to_id (B, M) int64        landmark ID of each slot (slots ≥ n[b] unused)
     n_rejected (B,) int64          observations rejected since the filter's reset
+    first (B, dmax) float64        first estimates: the pose the last prediction made,
+                                   then each landmark as it was initialised (what the
+                                   First-Estimates Jacobian EKF linearises at)
 Slot i is rows ``3+2i, 4+2i``; new landmarks take the next slots in the order first seen.
 
 Configuration, per world
-    params (B, 8) float64          :data:`NOISE` (α1..α4 for odometry, σp, σθ, βp, βθ for
+    params (B, 11) float64         :data:`NOISE` (α1..α4 for odometry, σp, σθ, βp, βθ for
                                    velocity), :data:`Q00`, :data:`Q01`, :data:`Q11` (the
                                    measurement covariance) and :data:`GATE` (the χ²
-                                   threshold; ``inf`` accepts everything)
-    modes (B, 3) int64             :data:`MOTION` (``ODOMETRY``/``VELOCITY`` of
+                                   threshold; ``inf`` accepts everything), then the
+                                   association's :data:`MATCH_GATE`, :data:`NEW_GATE`
+                                   and :data:`SIGHTINGS` (see :mod:`.association`)
+    modes (B, 5) int64             :data:`MOTION` (``ODOMETRY``/``VELOCITY`` of
                                    :mod:`slam_env.kernels.models`), :data:`MEASUREMENT`
                                    (``RANGE_BEARING``/``CARTESIAN``), :data:`CORRECTION`
-                                   (:data:`SEQUENTIAL`/:data:`BATCH`)
+                                   (:data:`SEQUENTIAL`/:data:`BATCH`),
+                                   :data:`ASSOCIATION` (:data:`KNOWN`,
+                                   :data:`NEAREST_NEIGHBOR`, :data:`JCBB`) and
+                                   :data:`LINEARIZATION` (:data:`STANDARD`/:data:`FEJ`)
+
+Linearisation: the standard EKF evaluates every Jacobian at the latest estimate. The
+First-Estimates Jacobian EKF (Huang, Mourikis & Roumeliotis) evaluates the prediction's
+G at the pose the previous prediction produced (``a = −(y' − ŷ_first)``,
+``b = x' − x̂_first``) and each measurement's H at the pose this step's prediction
+produced and at the landmark's first estimate, so that the linearised system keeps the
+true one's unobservable directions (global translation and rotation) and the filter
+does not turn over-confident. Means, innovations and noise Jacobians are the same in
+both.
 
 Every call is atomic per world: a world whose step fails (bad input, an innovation
 covariance that is not positive definite, a non-finite intermediate, a covariance that
@@ -55,19 +73,26 @@ from slam_env.kernels.models import (
 )
 
 # params columns
-NOISE, Q00, Q01, Q11, GATE = 0, 4, 5, 6, 7
-# modes columns, and the correction modes
-MOTION, MEASUREMENT, CORRECTION = 0, 1, 2
+NOISE, Q00, Q01, Q11, GATE, MATCH_GATE, NEW_GATE, SIGHTINGS = 0, 4, 5, 6, 7, 8, 9, 10
+N_PARAMS = 11
+# modes columns, and the codes of each mode
+MOTION, MEASUREMENT, CORRECTION, ASSOCIATION, LINEARIZATION = 0, 1, 2, 3, 4
+N_MODES = 5
 SEQUENTIAL, BATCH = 0, 1
+KNOWN, NEAREST_NEIGHBOR, JCBB = 0, 1, 2
+STANDARD, FEJ = 0, 1
 
 # Per-observation status (slam_env.ekf.Status), and UNUSED for padding, worlds not
-# touched and worlds whose update failed.
-CORRECTED, INITIALISED, REJECTED, UNUSED = 0, 1, 2, -1
+# touched and worlds whose update failed. DISCARDED: an observation the association
+# gave to no landmark (ID DISCARD_ID); TENTATIVE: one it holds as a possible new
+# landmark until a second sighting confirms it (ID TENTATIVE_ID).
+CORRECTED, INITIALISED, REJECTED, DISCARDED, TENTATIVE, UNUSED = 0, 1, 2, 3, 4, -1
+DISCARD_ID, TENTATIVE_ID = -1, -2
 
 # Per-world error codes.
 OK = 0
 BAD_INPUT = 1  # a control or measurement not finite, or a count outside [0, D]
-BAD_ID = 2  # a landmark ID outside [0, M)
+BAD_ID = 2  # a landmark ID outside [0, M) (-1, -2 allowed where the filter associates)
 DUPLICATE_ID = 3  # the same landmark ID twice in one update
 SMALL_WORKSPACE = 4  # work has fewer than update_workspace_size(dmax, D) entries
 NOT_POSITIVE_DEFINITE = 5  # S (or the Joseph factor's I − WᵀW) is not positive definite
@@ -119,10 +144,18 @@ def _finite(a: np.ndarray, count: int) -> bool:
 
 @kernel
 def _predict_world(
-    x: np.ndarray, P: np.ndarray, d: int, u: np.ndarray, params: np.ndarray, model: int
+    x: np.ndarray,
+    P: np.ndarray,
+    d: int,
+    first: np.ndarray,
+    u: np.ndarray,
+    params: np.ndarray,
+    model: int,
+    fej: bool,
 ) -> int:
     """One world's prediction (seed 000 §2.1): P_xx ← G P_xx Gᵀ + R_x, P_xm ← G P_xm,
-    the landmarks unchanged. Checks everything before writing anything."""
+    the landmarks unchanged; the new pose is also the first estimate of this pose.
+    Checks everything before writing anything."""
     u0 = u[0]
     u1 = u[1]
     u2 = u[2] if model == ODOMETRY else 0.0
@@ -141,6 +174,9 @@ def _predict_world(
         params[NOISE + 2],
         params[NOISE + 3],
     )
+    if fej:  # G at the first estimates: the pose the last prediction produced
+        a = first[1] - ny
+        b = nx - first[0]
     p00 = P[0, 0]
     p01 = P[0, 1]
     p02 = P[0, 2]
@@ -189,6 +225,9 @@ def _predict_world(
     x[0] = nx
     x[1] = ny
     x[2] = nth
+    first[0] = nx
+    first[1] = ny
+    first[2] = nth
     return OK
 
 
@@ -197,6 +236,7 @@ def predict(
     x: np.ndarray,
     P: np.ndarray,
     n: np.ndarray,
+    first: np.ndarray,
     u: np.ndarray,
     params: np.ndarray,
     modes: np.ndarray,
@@ -204,12 +244,22 @@ def predict(
     error: np.ndarray,
 ) -> None:
     """Predict every world b with ``mask[b]`` under its control ``u[b]`` ((B, 3); a
-    velocity model reads the first two columns, and u may then be (B, 2)). ``error[b]``
-    gets the world's error code (:data:`OK` for the worlds not touched)."""
+    velocity model reads the first two columns, and u may then be (B, 2)); the new pose
+    is also written to ``first[b, :3]``. ``error[b]`` gets the world's error code
+    (:data:`OK` for the worlds not touched)."""
     for b in range(x.shape[0]):
         error[b] = OK
         if mask[b]:
-            error[b] = _predict_world(x[b], P[b], 3 + 2 * n[b], u[b], params[b], modes[b, MOTION])
+            error[b] = _predict_world(
+                x[b],
+                P[b],
+                3 + 2 * n[b],
+                first[b],
+                u[b],
+                params[b],
+                modes[b, MOTION],
+                modes[b, LINEARIZATION] == FEJ,
+            )
 
 
 # --------------------------------------------------------------------------- corrections
@@ -250,21 +300,29 @@ def _add_observation(
     vec: np.ndarray,
     m: int,
     d: int,
+    first: np.ndarray,
+    fej: bool,
 ) -> int:
     """Observation m of a group: the landmark at rows s, s+1 of the mean ``xw``
     linearised (H into ``obs[m]``, ν into ``vec[0, 2m:2m+2]``) and its rows 2m, 2m+1
-    of Cᵀ = H P at the current covariance P − Σ_{ρ<r} U[ρ]ᵀ U[ρ]. :data:`SINGULAR`
-    where h cannot be linearised. (Rows are indexed, not sliced, here and below: a
-    view of an array costs a reference count.)"""
+    of Cᵀ = H P at the current covariance P − Σ_{ρ<r} U[ρ]ᵀ U[ρ]. ν is taken at the
+    mean, H there too or, with ``fej``, at the first estimates ``first``.
+    :data:`SINGULAR` where h cannot be linearised. (Rows are indexed, not sliced,
+    here and below: a view of an array costs a reference count.)"""
     x = xw[0]
     y = xw[1]
     th = xw[2]
     mx = xw[s]
     my = xw[s + 1]
-    if singular(model, x, y, mx, my):
+    lin = first if fej else xw
+    lx = lin[0]
+    ly = lin[1]
+    lmx = lin[s]
+    lmy = lin[s + 1]
+    if singular(model, x, y, mx, my) or singular(model, lx, ly, lmx, lmy):
         return SINGULAR
     zh0, zh1 = observe(model, x, y, th, mx, my)
-    h00, h01, h02, h03, h04, h10, h11, h12, h13, h14 = jacobian(model, x, y, th, mx, my)
+    h00, h01, h02, h03, h04, h10, h11, h12, h13, h14 = jacobian(model, lx, ly, lin[2], lmx, lmy)
     nu0, nu1 = innovation(model, z0, z1, zh0, zh1)
     total = nu0 + nu1 + h00 + h01 + h02 + h03 + h04 + h10 + h11 + h12 + h13 + h14
     if not math.isfinite(total):
@@ -492,16 +550,17 @@ def _correct_group(
 
 
 @kernel
-def _check_observations(z: np.ndarray, ids: np.ndarray, k: int, n_ids: int) -> int:
-    """BAD_INPUT for a non-finite measurement, BAD_ID / DUPLICATE_ID for the IDs."""
+def _check_observations(z: np.ndarray, ids: np.ndarray, k: int, n_ids: int, unassigned: int) -> int:
+    """BAD_INPUT for a non-finite measurement, BAD_ID / DUPLICATE_ID for the IDs
+    (``unassigned``: the lowest ID allowed, -1 where the filter associates)."""
     for j in range(k):
         if not (math.isfinite(z[j, 0]) and math.isfinite(z[j, 1])):
             return BAD_INPUT
         lid = ids[j]
-        if lid < 0 or lid >= n_ids:
+        if lid < unassigned or lid >= n_ids:
             return BAD_ID
         for i in range(j):
-            if ids[i] == lid:
+            if ids[i] == lid and lid >= 0:
                 return DUPLICATE_ID
     return OK
 
@@ -532,7 +591,7 @@ def _new_landmarks(
     Returns (new landmarks, error code)."""
     new = 0
     for j in range(k):
-        if slot_of[ids[j]] < 0:
+        if ids[j] >= 0 and slot_of[ids[j]] < 0:
             new += 1
     if new == 0:
         return 0, OK
@@ -549,7 +608,7 @@ def _new_landmarks(
     pth = xw[2]
     a = 0
     for j in range(k):
-        if slot_of[ids[j]] >= 0:
+        if ids[j] < 0 or slot_of[ids[j]] >= 0:
             continue
         mx, my = inverse(model, px, py, pth, z[j, 0], z[j, 1])
         lw = inverse_jacobian(model, pth, z[j, 0], z[j, 1])
@@ -646,6 +705,7 @@ def _commit_new(
     n: int,
     slot_of: np.ndarray,
     slot_to_id: np.ndarray,
+    first: np.ndarray,
     xw: np.ndarray,
     d: int,
     C: np.ndarray,
@@ -656,9 +716,11 @@ def _commit_new(
     status: np.ndarray,
 ) -> None:
     """Write the working mean and the new landmarks (rows, mirrored columns, the
-    symmetrised block, the ID maps) into the state."""
+    symmetrised block, the ID maps, the first estimates) into the state."""
     for i in range(d + 2 * new):
         x[i] = xw[i]
+    for i in range(d, d + 2 * new):
+        first[i] = xw[i]
     for i in range(2 * new):
         Ci = C[i]
         row = P[d + i]
@@ -671,7 +733,7 @@ def _commit_new(
     slot = n
     for j in range(k):
         lid = ids[j]
-        if slot_of[lid] < 0:
+        if lid >= 0 and slot_of[lid] < 0:
             slot_of[lid] = slot
             slot_to_id[slot] = lid
             status[j] = INITIALISED
@@ -686,6 +748,7 @@ def update(
     id_to_slot: np.ndarray,
     slot_to_id: np.ndarray,
     n_rejected: np.ndarray,
+    first: np.ndarray,
     params: np.ndarray,
     modes: np.ndarray,
     z: np.ndarray,
@@ -703,16 +766,26 @@ def update(
     Known landmarks are corrected first, in the given order (sequentially, each
     re-linearised at the corrected mean, or stacked in batch mode), each passing the
     χ² gate; then the new landmarks are initialised from the corrected belief, in the
-    given order. ``status[b, j]`` ((B, D) int8) gets :data:`CORRECTED`,
-    :data:`INITIALISED` or :data:`REJECTED` (:data:`UNUSED` past the count, for worlds
-    not touched and for a failed world); ``nis[b, j]`` ((B, D) float64) νᵀS⁻¹ν of each
-    correction or rejection (NaN otherwise); ``error[b]`` the error code. ``work``: a
-    float64 scratch array of at least :func:`update_workspace_size` ``(dmax, D)``
-    entries, shared by the worlds (they are updated one after the other)."""
+    given order. Where the filter associates (``modes[b, ASSOCIATION] != KNOWN``) an ID
+    of :data:`DISCARD_ID` is an observation given to no landmark, :data:`DISCARDED`,
+    and :data:`TENTATIVE_ID` one held for confirmation, :data:`TENTATIVE`.
+    ``status[b, j]`` ((B, D) int8) gets :data:`CORRECTED`, :data:`INITIALISED`,
+    :data:`REJECTED`, :data:`DISCARDED` or :data:`TENTATIVE` (:data:`UNUSED` past the
+    count, for worlds not touched and for a failed world); ``nis[b, j]`` ((B, D)
+    float64) νᵀS⁻¹ν of each correction or rejection (NaN otherwise); ``error[b]`` the
+    error code. ``work``: a float64 scratch array of at least
+    :func:`update_workspace_size` ``(dmax, K)`` entries, K the largest count of the
+    worlds updated (at most D: a workspace grows with the detections a step has, not
+    with the rows of the padded array), shared by the worlds (they are updated one after
+    the other)."""
     B = x.shape[0]
     dmax = x.shape[1]
     D = z.shape[1]
-    room = work.shape[0] >= update_workspace_size(dmax, D)
+    K = 0
+    for b in range(B):
+        if mask[b]:
+            K = max(K, min(max(counts[b], 0), D))
+    room = work.shape[0] >= update_workspace_size(dmax, K)
     for b in range(B):
         for j in range(D):
             status[b, j] = UNUSED
@@ -723,7 +796,7 @@ def update(
     # The workspace: the working mean, the factor rows U, the rows C (Cᵀ = H P, then
     # the new landmarks' cross-covariances), the corrected pose rows PR, the small
     # matrices, ν and G ν, and the per-observation scratch.
-    R = 2 * D
+    R = 2 * K
     o = 0
     xw = work[o : o + dmax]
     o += dmax
@@ -737,7 +810,7 @@ def update(
     o += N_SMALL * R * R
     vec = work[o : o + 2 * R].reshape((2, R))
     o += 2 * R
-    obs = work[o : o + 13 * D].reshape((D, 13))
+    obs = work[o : o + 13 * K].reshape((K, 13))
     for b in range(B):
         if not mask[b]:
             continue
@@ -751,9 +824,16 @@ def update(
         pb = params[b]
         k = counts[b]
         d = 3 + 2 * n[b]
-        err = BAD_INPUT if k < 0 or k > D else _check_observations(zb, ib, k, slot_of.shape[0])
+        lowest = 0 if modes[b, ASSOCIATION] == KNOWN else TENTATIVE_ID
+        err = (
+            BAD_INPUT
+            if k < 0 or k > D
+            else _check_observations(zb, ib, k, slot_of.shape[0], lowest)
+        )
         model = modes[b, MEASUREMENT]
         sequential = modes[b, CORRECTION] == SEQUENTIAL
+        fej = modes[b, LINEARIZATION] == FEJ
+        fb = first[b]
         # np.int64(0), not 0: a literal 0 passed on would compile the callees once more.
         r = np.int64(0)
         m = np.int64(0)
@@ -765,12 +845,16 @@ def update(
         # after all of them (j == k) in batch mode.
         for j in range(k + 1 if err == OK else 0):
             if j < k:
+                if ib[j] < 0:
+                    st[j] = DISCARDED if ib[j] == DISCARD_ID else TENTATIVE
+                    continue
                 slot = slot_of[ib[j]]
                 if slot < 0:
                     continue  # a new landmark
                 code = _add_observation(
-                    model, xw, Pb, U, r, 3 + 2 * slot, zb[j, 0], zb[j, 1], obs, C, vec, m, d
-                )
+                    model, xw, Pb, U, r, 3 + 2 * slot, zb[j, 0], zb[j, 1], obs, C, vec, m, d,
+                    fb, fej,
+                )  # fmt: skip
                 if code == SINGULAR:
                     st[j] = REJECTED  # h cannot be linearised (a landmark on the robot)
                     rejected += 1
@@ -809,6 +893,8 @@ def update(
         # Commit: nothing above wrote the state.
         if r > 0:
             _apply_factors(Pb, U, r, d)
-        _commit_new(xb, Pb, n[b], slot_of, slot_to_id[b], xw, d, C, small[_S], new, ib, k, st)
+        _commit_new(
+            xb, Pb, n[b], slot_of, slot_to_id[b], fb, xw, d, C, small[_S], new, ib, k, st
+        )  # fmt: skip
         n[b] += new
         n_rejected[b] += rejected

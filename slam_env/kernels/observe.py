@@ -21,6 +21,7 @@ class RawParams(NamedTuple):
     detection_high: np.ndarray
     new_landmark_bonus: float  # reward per landmark detected for the first time
     collision_penalty: float  # subtracted on a step with a collision
+    report_ids: bool  # False: every detection's ID reads -1
 
 
 class RawOutputs(NamedTuple):
@@ -28,7 +29,7 @@ class RawOutputs(NamedTuple):
 
     odometry: np.ndarray  # (B, control_dim) float32
     detections: np.ndarray  # (B, 2D) float32, row-major [z0, z1] pairs, zero padding
-    ids: np.ndarray  # (B, D) float32, −1 padding
+    ids: np.ndarray  # (B, D) float32, −1 padding, clutter and hidden IDs
     mask: np.ndarray  # (B, D) float32
     bumper: np.ndarray  # (B, 1) float32
     all_seen: np.ndarray  # (B,) bool, every landmark of the world seen
@@ -57,7 +58,8 @@ def observe_raw(
 ) -> None:
     """The raw observation of each active world from its odometry reading
     ``control`` (B, c), its detections (z (B, D, 2), ids (B, D), count (B,)) and its
-    collision flag; marks the detected IDs in ``seen`` (B, M) and pays the new ones.
+    collision flag; marks the detected IDs in ``seen`` (B, M) and pays the new ones
+    (clutter, ID −1, is no landmark). The IDs read −1 where the sensor reports none.
     ``params_fields`` and ``out_fields`` are the fields of a :class:`RawParams` and a
     :class:`RawOutputs`, as plain tuples (see :mod:`slam_env.kernels`)."""
     params = RawParams(*params_fields)
@@ -76,9 +78,9 @@ def observe_raw(
                     lo, hi = params.detection_low[c], params.detection_high[c]
                     out.detections[b, 2 * j + c] = _clip(z[b, j, c], lo, hi)
                 lid = ids[b, j]
-                out.ids[b, j] = lid
+                out.ids[b, j] = lid if params.report_ids else -1.0
                 out.mask[b, j] = 1.0
-                if not seen[b, lid]:
+                if lid >= 0 and not seen[b, lid]:
                     seen[b, lid] = True
                     new += 1
             else:
@@ -107,18 +109,29 @@ def filter_inputs(
     out_u: np.ndarray,
     out_z: np.ndarray,
     out_ids: np.ndarray,
+    counts: np.ndarray,
+    out_counts: np.ndarray,
+    known: bool,
 ) -> None:
     """What the filter reads of each active world's raw observation, as the belief
     wrapper reads it from the observation itself (float32 values, widened exactly):
-    the control ``out_u`` (B, c) from ``odometry``, the measurements ``out_z``
-    (B, D, 2) from ``detections`` (B, 2D) and their IDs ``out_ids`` (B, D) int64 from
-    ``ids`` (B, D) (padding included: the counts say how many are real)."""
+    the control ``out_u`` (B, c) from ``odometry``, the first ``counts[b]``
+    measurements ``out_z`` (B, D, 2) from ``detections`` (B, 2D) and their IDs
+    ``out_ids`` (B, D) int64 from ``ids`` (B, D), their number in ``out_counts``. A
+    filter with ``known`` correspondences cannot use a detection without an ID
+    (clutter): those are left out."""
     for b in range(odometry.shape[0]):
         if not active[b]:
             continue
         for i in range(odometry.shape[1]):
             out_u[b, i] = odometry[b, i]
-        for j in range(ids.shape[1]):
-            out_z[b, j, 0] = detections[b, 2 * j]
-            out_z[b, j, 1] = detections[b, 2 * j + 1]
-            out_ids[b, j] = int(ids[b, j])
+        k = 0
+        for j in range(counts[b]):
+            lid = int(ids[b, j])
+            if known and lid < 0:
+                continue
+            out_z[b, k, 0] = detections[b, 2 * j]
+            out_z[b, k, 1] = detections[b, 2 * j + 1]
+            out_ids[b, k] = lid
+            k += 1
+        out_counts[b] = k

@@ -86,6 +86,19 @@ def test_settings_rllib_cannot_honour_are_refused(ppo, key):
         check_rllib_config(config_from_dict({"ppo": ppo}))
 
 
+@pytest.mark.parametrize(
+    ("config", "key"),
+    [
+        ({"env_options": {"observation": "local"}, "worlds": {}}, "worlds"),
+        ({"n_envs": 2, "world_groups": 1}, "world_groups"),
+        ({"env_options": {"observation": "local"}}, "observation"),
+    ],
+)
+def test_what_the_rllib_engine_does_not_do_yet_is_refused(config, key):
+    with pytest.raises(ConfigError, match=key):
+        check_rllib_config(config_from_dict(config))
+
+
 def test_the_default_config_suits_rllib():
     check_rllib_config(config_from_dict(None))  # raises nothing
 

@@ -190,6 +190,7 @@ def test_the_batched_kernels_agree_with_the_dense_filter_for_every_combination(d
     x[:, :3], P[:, :3, :3] = pose0, cov0
     n, n_rejected = np.zeros(B, np.int64), np.zeros(B, np.int64)
     id_to_slot, slot_to_id = np.full((B, M), -1), np.full((B, M), -1)
+    first = x.copy()
     config = [
         kernel_config(m, h, c, ALPHAS if m == "odometry" else CONTROL_NOISE, Q[h], gate)
         for m, h, c in COMBOS
@@ -222,7 +223,7 @@ def test_the_batched_kernels_agree_with_the_dense_filter_for_every_combination(d
             u[b, :cdim] = random_control(rng, motion)
             poses[b] = MOTION_MODELS[motion].motion(poses[b], u[b, :cdim])
             refs[b].predict(u[b, :cdim])
-        ekf.predict(x, P, n, u, params, modes, everywhere, error)
+        ekf.predict(x, P, n, first, u, params, modes, everywhere, error)
         assert (error == 0).all()
         z, ids = np.zeros((B, D, 2)), np.zeros((B, D), np.int64)
         k = rng.integers(0, D + 1, size=B)
@@ -236,7 +237,7 @@ def test_the_batched_kernels_agree_with_the_dense_filter_for_every_combination(d
                 z[b, 0, 0] += 2.0  # an outlier the gate rejects if the landmark is known
         status, nis = np.empty((B, D), np.int8), np.empty((B, D))
         ekf.update(
-            x, P, n, id_to_slot, slot_to_id, n_rejected, params, modes, z, ids, k,
+            x, P, n, id_to_slot, slot_to_id, n_rejected, first, params, modes, z, ids, k,
             everywhere, status, nis, error, work,
         )  # fmt: skip
         assert (error == 0).all()

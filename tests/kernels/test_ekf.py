@@ -62,6 +62,7 @@ class Batch:
         self.id_to_slot = np.full((B, M), -1, dtype=np.int64)
         self.slot_to_id = np.full((B, M), -1, dtype=np.int64)
         self.n_rejected = np.zeros(B, dtype=np.int64)
+        self.first = np.zeros((B, DMAX))
         rows = [
             kernel_config(
                 motion,
@@ -76,18 +77,24 @@ class Batch:
         self.params = np.array([p for p, _ in rows])
         self.modes = np.array([m for _, m in rows])
         self.x[:, :3] = (0.1, -0.2, wrap_angle(3.1))  # the prior as EKFSLAM takes it
+        self.first[:, :3] = self.x[:, :3]
         self.P[:, :3, :3] = PRIOR
         self.error = np.zeros(B, dtype=np.int64)
         self.work = np.empty(ekf.update_workspace_size(DMAX, max_obs))
 
     def state(self):
-        return self.x, self.P, self.n, self.id_to_slot, self.slot_to_id, self.n_rejected
+        return (
+            self.x, self.P, self.n, self.id_to_slot, self.slot_to_id, self.n_rejected,
+            self.first,
+        )  # fmt: skip
 
     def snapshot(self, b: int) -> list[np.ndarray]:
         return [a[b].copy() for a in self.state()]
 
     def predict(self, u, mask):
-        ekf.predict(self.x, self.P, self.n, u, self.params, self.modes, mask, self.error)
+        ekf.predict(
+            self.x, self.P, self.n, self.first, u, self.params, self.modes, mask, self.error
+        )  # fmt: skip
         return self.error.copy()
 
     def update(self, z, ids, counts, mask):
@@ -103,7 +110,9 @@ class Batch:
 
 def filter_state(f: EKFSLAM) -> list[np.ndarray]:
     x, P, n, slot_to_id = f.belief_arrays()
-    return [x[0], P[0], n[0], f.id_to_state, slot_to_id[0], np.int64(f.n_rejected)]
+    return [
+        x[0], P[0], n[0], f.id_to_state, slot_to_id[0], np.int64(f.n_rejected), f._firstb[0],
+    ]  # fmt: skip
 
 
 def assert_same(batch: Batch, b: int, f: EKFSLAM) -> None:
@@ -191,7 +200,9 @@ def test_b_worlds_equal_b_independent_filters_bit_for_bit():
 
 
 def test_the_status_codes_are_the_filters():
-    assert tuple(Status) == (ekf.CORRECTED, ekf.INITIALISED, ekf.REJECTED)
+    assert tuple(Status) == (
+        ekf.CORRECTED, ekf.INITIALISED, ekf.REJECTED, ekf.DISCARDED, ekf.TENTATIVE,
+    )  # fmt: skip
     assert len(ekf.ERROR_NAMES) == ekf.OVERFLOW + 1
 
 
@@ -270,17 +281,23 @@ def test_a_non_finite_belief_is_refused():
 
 
 def test_too_small_a_workspace_is_refused_for_the_worlds_asked_for():
+    """The workspace must hold the largest count of the worlds asked for (3 here), not
+    the rows of the padded arrays (5)."""
     batch = _two_worlds()
     batch.work = np.empty(ekf.update_workspace_size(DMAX, 3) - 1)
     before = [batch.snapshot(b) for b in range(2)]
-    z = np.zeros((2, 3, 2))
-    status, _, error = batch.update(z, np.zeros((2, 3), dtype=np.int64), np.array([1, 1]),
-                                    np.array([True, False]))  # fmt: skip
+    z = np.ones((2, 5, 2))
+    ids = np.tile(np.arange(5), (2, 1))
+    status, _, error = batch.update(z, ids, np.array([3, 5]), np.array([True, False]))
     assert error.tolist() == [ekf.SMALL_WORKSPACE, ekf.OK]
     assert (status == ekf.UNUSED).all()
     for b in range(2):
         for mine, then in zip(batch.snapshot(b), before[b], strict=True):
             np.testing.assert_array_equal(mine, then)
+    batch.work = np.empty(ekf.update_workspace_size(DMAX, 3))
+    status, _, error = batch.update(z, ids, np.array([3, 5]), np.array([True, False]))
+    assert error.tolist() == [ekf.OK, ekf.OK]
+    assert (status[0, :3] != ekf.UNUSED).all() and (status[0, 3:] == ekf.UNUSED).all()
 
 
 def test_predict_refuses_a_non_finite_control_and_an_overflow_per_world():

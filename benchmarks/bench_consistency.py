@@ -1,0 +1,478 @@
+"""Filter consistency and map accuracy against the batch least-squares optimum.
+
+    .venv/bin/python benchmarks/bench_consistency.py [--runs 30] [--steps 500]
+        [--odometry-scale 1] [--seed 0] [--variants known/standard jcbb/fej ...] [--clutter 0]
+
+The settings the README records: the defaults, ``--odometry-scale 4 --steps 1000``,
+``--odometry-scale 16 --steps 1000`` and ``--clutter 0.1``. A run of the defaults, every
+variant, takes about 30 s on two shared cores (env ~7 s, filters ~12 s, smoother
+~13 s); the 1,000-step ones 2–3 minutes.
+
+Monte Carlo over the env's own noise: episode r is ``slam_env/Landmarks-v0`` (the raw
+stream: odometry readings, detections with IDs, the truth in ``info``) reset with seed
+``--seed + r`` on the default world (a new random world per seed), driven by
+:class:`TourDriver`: from the true pose, it drives A* paths on the layout's known map
+(obstacles and landmark posts inflated by the robot's radius) to the nearest landmark
+not yet seen from within ``SEEN_CLOSE`` metres, and once all have been, back to the start
+(a loop closure) and round again. The driver reads only the truth and never the noise,
+so every variant gets the same data. ``--odometry-scale`` multiplies the env's α1..α4
+(the reading's variances; the filters are told the same, noise-matched).
+
+Each episode's recorded data is fed to every EKF-SLAM variant of ``--variants``
+(:data:`VARIANTS`: a name and the ``EKFSLAM`` keyword arguments that make it, on top of
+:func:`filter_kwargs`, the noise-matched filter the env's ActiveSLAM wrapper builds:
+true start pose, zero initial covariance, χ² gate ``DEFAULT_GATE``) and to the batch
+least-squares smoother (benchmarks/smoother.py), started from the known-ID standard
+filter's filtered trajectory and final map. Variants whose ``data_association`` is not
+``"known"`` get the detections with every ID hidden (−1); the others, and the smoother,
+only the detections the env labelled (ID ≥ 0: clutter, where the env has it, is left
+out). The table:
+
+* ``in band``: the share of steps 1..T whose pose NEES averaged over the runs lies in
+  the two-sided 95% χ² band (3·runs dof, divided by runs; slam_env.metrics);
+* ``mean NEES``: the pose NEES averaged over runs and steps (3 for a consistent filter);
+* ``EKF RMSE``: the final map RMSE (m) over the landmarks in the filter's map, mean over
+  runs; ``LS RMSE``: the smoother's on the same runs; ``ratio``: EKF / LS. A run in
+  which a filter refuses a call (``FloatingPointError``) is left out of its row and
+  counted.
+
+For the variants that associate, ``correct`` is the share of the detections given to
+the right landmark (or correctly starting one, or clutter left out), and ``wrong``,
+``missed``, ``dup`` the counts over all runs of wrong associations, missed ones and
+duplicated landmarks, judged by ActiveSLAM-v0's own rules
+(:mod:`slam_env.kernels.association_score`); their map RMSE pairs each filter landmark
+with the true landmark that started it.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+from smoother import Episode, smooth
+
+import slam_env  # noqa: F401  (registers the env IDs)
+from agents.navigation import ControllerParams, GridMap, PathFollower, astar, nearest_passable
+from slam_env.config import make_config
+from slam_env.ekf import EKFSLAM
+from slam_env.env import unpack_detections
+from slam_env.kernels.association_score import SCORE_NAMES, score_association
+from slam_env.layouts import LANDMARK_POST_RADIUS
+from slam_env.metrics import map_rmse, nees, nees_band, pose_error, share_in_nees_band
+from slam_env.wrappers import DEFAULT_GATE
+
+ENV_ID = "slam_env/Landmarks-v0"
+
+# A variant: the EKFSLAM keyword arguments that make it (on top of filter_kwargs).
+# "jcbb2": JCBB with a new landmark started on its second sighting (against clutter).
+VARIANTS: dict[str, dict[str, Any]] = {
+    "known/standard": {},
+    "known/fej": {"linearization": "fej"},
+    "nn/standard": {"data_association": "nearest_neighbor"},
+    "nn/fej": {"data_association": "nearest_neighbor", "linearization": "fej"},
+    "jcbb/standard": {"data_association": "jcbb"},
+    "jcbb/fej": {"data_association": "jcbb", "linearization": "fej"},
+    "jcbb2/standard": {"data_association": "jcbb", "new_landmark_sightings": 2},
+    "jcbb2/fej": {
+        "data_association": "jcbb",
+        "new_landmark_sightings": 2,
+        "linearization": "fej",
+    },
+}
+# The variant whose filtered trajectory and map start the smoother.
+BASELINE = "known/standard"
+
+SEEN_CLOSE = 3.0  # m, a landmark detected from closer than this needs no visit
+GOAL_REACHED = 0.4  # m of path left at which the driver takes the next goal
+STUCK_STEPS = 25  # steps without 0.1 m of progress before the driver gives a goal up
+INFLATION_MARGIN = 0.1  # m of clearance kept beyond the robot's radius
+
+
+# --------------------------------------------------------------------------- driving
+
+
+class TourDriver:
+    """A deterministic explorer on the true pose (see the module docstring)."""
+
+    def __init__(self, env: gym.Env) -> None:
+        base = env.unwrapped
+        layout = base.layout
+        robot = base.config.robot
+        self.grid = GridMap.from_layout(layout, resolution=0.2)
+        inflate = robot.radius + INFLATION_MARGIN
+        posts = np.asarray(layout.landmark_positions, dtype=np.float64)
+        self.passable = self.grid.passable(inflate, posts, LANDMARK_POST_RADIUS + inflate)
+        self.controller = ControllerParams(
+            max_speed=robot.max_speed,
+            max_turn_rate=robot.max_turn_rate,
+            turn_limit=0.5,
+            dt=base.config.dt,
+        )
+        self.ids = np.asarray(layout.landmark_ids, dtype=np.int64)
+        self.posts = posts
+        self.home = np.asarray(layout.start_pose[:2], dtype=np.float64)
+        self.done = np.zeros(len(self.ids), dtype=bool)
+        self.follower: PathFollower | None = None
+        self.goal_index = -1  # the landmark being visited, -1 for home
+        self.best_left = math.inf
+        self.since_progress = 0
+
+    def observe(self, z: np.ndarray, ids: np.ndarray) -> None:
+        """Mark the landmarks detected from within SEEN_CLOSE."""
+        close = ids[(ids >= 0) & (z[:, 0] < SEEN_CLOSE)] if len(ids) else ids
+        self.done |= np.isin(self.ids, close)
+
+    def _plan(self, pose: np.ndarray) -> None:
+        """A path to the nearest landmark not done (home when all are), skipping
+        landmarks it cannot reach."""
+        start = self.grid.cell_of(float(pose[0]), float(pose[1]))
+        while True:
+            left = np.flatnonzero(~self.done)
+            if len(left):
+                k = int(left[np.argmin(np.hypot(*(self.posts[left] - pose[:2]).T))])
+                target = self.posts[k]
+            else:
+                k, target = -1, self.home
+            goal = nearest_passable(self.passable, self.grid.cell_of(*target))
+            cells = None if goal is None else astar(self.passable, start, goal)
+            if cells or k < 0:
+                break
+            self.done[k] = True  # unreachable: give it up
+        self.goal_index = k
+        if not cells:  # not even home is reachable from here: drive at it
+            points = np.array([target])
+        else:
+            points = np.array([self.grid.center(i, j) for i, j in cells])
+        self.follower = PathFollower(points, lookahead=0.6, params=self.controller)
+        self.best_left = math.inf
+        self.since_progress = 0
+
+    def act(self, pose: np.ndarray) -> np.ndarray:
+        """The action (speed, turn) fractions from the true pose."""
+        if self.follower is None or (self.goal_index >= 0 and self.done[self.goal_index]):
+            self._plan(pose)
+        _, left = self.follower.progress(pose[:2])
+        if left < self.best_left - 0.1:
+            self.best_left, self.since_progress = left, 0
+        else:
+            self.since_progress += 1
+        if left < GOAL_REACHED or self.since_progress > STUCK_STEPS:
+            if self.goal_index >= 0:
+                self.done[self.goal_index] = True
+            else:  # home again: start another round
+                self.done[:] = False
+            self._plan(pose)
+        return self.follower.action(pose)
+
+
+# --------------------------------------------------------------------------- data
+
+
+@dataclass
+class Recording:
+    """One episode as the env gave it: the data (:class:`Episode`, known IDs only),
+    each step's detections as the filters see them (``z``, ``ids`` with −1 for a
+    detection the env did not label), the true poses (T+1, 3) and the true landmark
+    positions by ID."""
+
+    episode: Episode
+    detections: list[tuple[np.ndarray, np.ndarray]]
+    true_poses: np.ndarray
+    truth: dict[int, np.ndarray]
+    n_landmarks: int
+    n_slots: int
+
+
+def env_options(odometry_scale: float, clutter: float) -> dict[str, Any]:
+    """The env's options: the default world with the odometry noise scaled, and
+    ``clutter_rate``."""
+    alphas = tuple(odometry_scale * a for a in make_config().odometry.alphas)
+    return {"alphas": alphas, "clutter_rate": clutter}
+
+
+def record_episode(env: gym.Env, seed: int, steps: int) -> Recording:
+    """Drive one episode of ``steps`` steps with :class:`TourDriver`."""
+    obs, info = env.reset(seed=seed)
+    driver = TourDriver(env)
+    config = env.unwrapped.config
+    poses = [np.asarray(info["pose"], dtype=np.float64)]
+    controls, detections = [], []
+    for _ in range(steps):
+        obs, _, terminated, truncated, info = env.step(driver.act(poses[-1]))
+        z, ids = unpack_detections(obs)  # clutter reads ID −1
+        driver.observe(z, ids)
+        poses.append(np.asarray(info["pose"], dtype=np.float64))
+        controls.append(np.asarray(obs["odometry"], dtype=np.float64))
+        detections.append((z, ids))
+        if terminated or truncated:
+            break
+    labelled = [(t, z[ids >= 0], ids[ids >= 0]) for t, (z, ids) in enumerate(detections, 1)]
+    episode = Episode(
+        start_pose=poses[0],
+        controls=np.array(controls),
+        steps=np.concatenate([np.full(len(i), t, dtype=np.int64) for t, _, i in labelled]),
+        ids=np.concatenate([i for _, _, i in labelled]).astype(np.int64),
+        z=np.concatenate([z.reshape(-1, 2) for _, z, _ in labelled]),
+        motion_model=config.odometry.motion_model,
+        motion_params=(
+            config.odometry.alphas
+            if config.odometry.motion_model == "odometry"
+            else config.odometry.velocity_noise
+        ),
+        measurement_model=config.sensor.measurement_model,
+        measurement_cov=np.asarray(config.sensor.measurement_cov, dtype=np.float64),
+    )
+    truth = {
+        int(i): np.asarray(p, dtype=np.float64)
+        for i, p in zip(info["landmark_ids"], info["landmark_positions"], strict=True)
+        if i >= 0
+    }
+    return Recording(
+        episode, detections, np.array(poses), truth, len(truth), env.unwrapped.n_landmark_slots
+    )
+
+
+# --------------------------------------------------------------------------- filters
+
+
+def filter_kwargs(recording: Recording) -> dict[str, Any]:
+    """The noise-matched filter ActiveSLAM-v0 builds for this episode's env."""
+    ep = recording.episode
+    noise = "alphas" if ep.motion_model == "odometry" else "control_noise"
+    return {
+        "motion_model": ep.motion_model,
+        "measurement_model": ep.measurement_model,
+        noise: ep.motion_params,
+        "measurement_cov": ep.measurement_cov,
+        "max_landmarks": recording.n_slots,
+        "initial_pose": ep.start_pose,
+        "initial_pose_cov": np.zeros((3, 3)),
+        "gate": DEFAULT_GATE,
+    }
+
+
+def hides_ids(kwargs: dict[str, Any]) -> bool:
+    """Whether the variant associates by itself (it then gets no IDs)."""
+    return kwargs.get("data_association", "known") != "known"
+
+
+@dataclass
+class FilterRun:
+    """One variant on one episode: the pose NEES per step (T,), the filtered poses
+    (T+1, 3), the final map RMSE (m), the final map (ID → (2,); filter-owned IDs for
+    an associating variant), and its association scores (:data:`SCORE_NAMES`; zeros
+    for a variant told the IDs)."""
+
+    nees: np.ndarray
+    poses: np.ndarray
+    rmse: float
+    landmarks: dict[int, np.ndarray]
+    scores: np.ndarray
+
+
+def score(
+    result: Any, true_ids: np.ndarray, n_before: int, slot_truth: np.ndarray, episode: np.ndarray
+) -> None:
+    """Score one update of an associating variant against the truth with the env's
+    own rules (:func:`slam_env.kernels.association_score.score_association`): the
+    counts go to ``episode`` (1, 4), the truth of each landmark it started to
+    ``slot_truth`` (1, M)."""
+    k = len(true_ids)
+    score_association(
+        result.ids.reshape(1, k), result.status.reshape(1, k), true_ids.reshape(1, k),
+        np.array([k]), np.array([n_before]), slot_truth, np.ones(1, dtype=np.bool_),
+        np.zeros((1, len(SCORE_NAMES)), dtype=np.int64), episode,
+    )  # fmt: skip
+
+
+def run_filter(recording: Recording, kwargs: dict[str, Any]) -> FilterRun:
+    """One variant over the recorded episode."""
+    f = EKFSLAM(**{**filter_kwargs(recording), **kwargs})
+    hide = hides_ids(kwargs)
+    ep = recording.episode
+    T = ep.n_steps
+    nees_t = np.empty(T)
+    poses = np.empty((T + 1, 3))
+    poses[0] = f.pose
+    slot_truth = np.full((1, max(f.max_landmarks, 1)), -1, dtype=np.int64)
+    scores = np.zeros((1, len(SCORE_NAMES)), dtype=np.int64)
+    for t in range(1, T + 1):
+        f.predict(ep.controls[t - 1])
+        z, ids = recording.detections[t - 1]
+        if not hide:
+            z, ids = z[ids >= 0], ids[ids >= 0]
+        if len(ids):
+            n_before = f.n_landmarks
+            result = f.update(z, None if hide else ids)
+            if hide:
+                score(result, ids, n_before, slot_truth, scores)
+        poses[t] = f.pose
+        nees_t[t - 1] = nees(pose_error(f.pose, recording.true_poses[t]), f.pose_cov)
+    means = f.landmark_means()
+    landmarks = {int(i): means[k] for k, i in enumerate(f.state_to_id.tolist())}
+    # Each filter landmark against its true one (for an associating filter: the one
+    # whose detection started it; none for clutter).
+    owner = {i: int(slot_truth[0, i]) for i in landmarks} if hide else {i: i for i in landmarks}
+    mine = [i for i in landmarks if owner[i] >= 0]
+    rmse = map_rmse(
+        np.array([landmarks[i] for i in mine]).reshape(-1, 2),
+        np.array([recording.truth[owner[i]] for i in mine]).reshape(-1, 2),
+    )
+    return FilterRun(nees_t, poses, rmse, landmarks, scores[0])
+
+
+# --------------------------------------------------------------------------- main
+
+
+@dataclass
+class Tally:
+    """What one variant collected: per run it completed (``runs``, indices into the
+    episodes), the pose NEES per step and the final map RMSE; ``failures`` counts the
+    runs in which the filter refused a call (``FloatingPointError``)."""
+
+    runs: list[int] = field(default_factory=list)
+    nees: list[np.ndarray] = field(default_factory=list)
+    rmse: list[float] = field(default_factory=list)
+    scores: np.ndarray = field(default_factory=lambda: np.zeros(len(SCORE_NAMES), np.int64))
+    failures: int = 0
+
+
+@dataclass
+class SmootherTally:
+    """The smoother's final map RMSE, 2·cost/dof and convergence, per episode."""
+
+    rmse: list[float] = field(default_factory=list)
+    chi2_per_dof: list[float] = field(default_factory=list)
+    converged: list[bool] = field(default_factory=list)
+    seen: list[float] = field(default_factory=list)  # share of the landmarks seen
+
+
+def evaluate(
+    args: argparse.Namespace, variants: dict[str, dict[str, Any]]
+) -> tuple[dict[str, Tally], SmootherTally, dict[str, float]]:
+    """Every episode through every variant and the smoother; also the seconds spent
+    on the env and driver, the filters and the smoother."""
+    env = gym.make(
+        ENV_ID, max_episode_steps=args.steps, **env_options(args.odometry_scale, args.clutter)
+    )
+    tallies = {name: Tally() for name in variants}
+    ls = SmootherTally()
+    clock = {"env": 0.0, "filters": 0.0, "smoother": 0.0}
+    for r in range(args.runs):
+        start = time.perf_counter()
+        recording = record_episode(env, args.seed + r, args.steps)
+        clock["env"] += time.perf_counter() - start
+        start = time.perf_counter()
+        runs: dict[str, FilterRun] = {}
+        for name, kwargs in {BASELINE: VARIANTS[BASELINE], **variants}.items():
+            try:
+                runs[name] = run_filter(recording, kwargs)
+            except FloatingPointError:
+                if name in tallies:
+                    tallies[name].failures += 1
+        for name, run in runs.items():
+            if name in tallies:
+                tallies[name].runs.append(r)
+                tallies[name].nees.append(run.nees)
+                tallies[name].rmse.append(run.rmse)
+                tallies[name].scores += run.scores
+        clock["filters"] += time.perf_counter() - start
+        start = time.perf_counter()
+        base = runs.get(BASELINE)
+        fit = smooth(
+            recording.episode,
+            None if base is None else base.poses,
+            None if base is None else base.landmarks,
+        )
+        clock["smoother"] += time.perf_counter() - start
+        truth = np.array([recording.truth[i] for i in fit.landmark_ids.tolist()])
+        ls.rmse.append(map_rmse(fit.landmarks, truth.reshape(-1, 2)))
+        ls.chi2_per_dof.append(2.0 * fit.cost / max(fit.redundancy, 1))
+        ls.converged.append(fit.success)
+        ls.seen.append(len(fit.landmark_ids) / recording.n_landmarks)
+    return tallies, ls, clock
+
+
+def print_table(
+    args: argparse.Namespace,
+    tallies: dict[str, Tally],
+    ls: SmootherTally,
+    clock: dict[str, float],
+) -> None:
+    lower, upper = nees_band(3, args.runs)
+    print(
+        f"{ENV_ID}, default world: {args.runs} runs × {args.steps} steps, odometry α × "
+        f"{args.odometry_scale:g}, clutter {args.clutter:g}, "
+        f"seeds {args.seed}..{args.seed + args.runs - 1}; landmarks seen "
+        f"{100 * np.mean(ls.seen):.0f}%; 95% band of the averaged pose NEES "
+        f"[{lower:.2f}, {upper:.2f}]"
+    )
+    print(
+        f"time: env + driver {clock['env']:.1f} s, filters {clock['filters']:.1f} s, "
+        f"smoother {clock['smoother']:.1f} s; smoother 2·cost/dof "
+        f"{np.mean(ls.chi2_per_dof):.3f} (1 when the noise models hold), "
+        f"{ls.converged.count(False)} fits not converged"
+    )
+    w = max([16, *(len(name) + 2 for name in tallies)])
+    header = (
+        f"{'variant':<{w}}{'in band':>9}{'mean NEES':>11}{'EKF RMSE':>10}{'LS RMSE':>9}"
+        f"{'ratio':>7}{'correct':>9}{'wrong':>7}{'missed':>8}{'dup':>5}"
+    )
+    print(header)
+    print("-" * len(header))
+    for name, tally in tallies.items():
+        band = share_in_nees_band(tally.nees, dof=3, first_step=0)
+        values = np.concatenate(tally.nees) if tally.nees else np.array([math.nan])
+        mean_nees = (
+            float(np.mean(values[np.isfinite(values)])) if np.isfinite(values).any() else math.nan
+        )
+        ekf = float(np.mean(tally.rmse)) if tally.rmse else math.nan
+        best = float(np.mean([ls.rmse[r] for r in tally.runs])) if tally.runs else math.nan
+        note = f"  ({tally.failures} runs failed, left out)" if tally.failures else ""
+        correct, wrong, missed, dup = tally.scores.tolist()
+        if hides_ids(VARIANTS[name]):
+            share = correct / max(correct + wrong + missed, 1)
+            association = f"{100 * share:>8.2f}%{wrong:>7}{missed:>8}{dup:>5}"
+        else:
+            association = f"{'-':>9}{'-':>7}{'-':>8}{'-':>5}"
+        print(
+            f"{name:<{w}}{100 * band:>8.1f}%{mean_nees:>11.2f}{ekf:>10.4f}"
+            f"{best:>9.4f}{ekf / best:>7.2f}{association}{note}"
+        )
+
+
+def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--runs", type=int, default=30, help="Monte Carlo episodes")
+    parser.add_argument("--steps", type=int, default=500, help="steps per episode")
+    parser.add_argument("--odometry-scale", type=float, default=1.0, help="multiplies α1..α4")
+    parser.add_argument("--seed", type=int, default=0, help="episode r is reset with seed + r")
+    parser.add_argument(
+        "--variants",
+        nargs="+",
+        default=list(VARIANTS),
+        help=f"any of {', '.join(VARIANTS)} (default all)",
+    )
+    parser.add_argument("--clutter", type=float, default=0.0, help="the env's clutter_rate")
+    args = parser.parse_args(argv)
+    if args.runs < 1 or args.steps < 1 or not args.odometry_scale > 0.0:
+        parser.error("--runs and --steps must be >= 1, --odometry-scale > 0")
+    unknown = [v for v in args.variants if v not in VARIANTS]
+    if unknown:
+        parser.error(f"unknown variants {unknown}; choose from {list(VARIANTS)}")
+    return args
+
+
+def main(argv: Sequence[str] | None = None) -> None:
+    args = parse_args(argv)
+    print_table(args, *evaluate(args, {name: VARIANTS[name] for name in args.variants}))
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,184 @@
+"""The First-Estimates Jacobian EKF (``linearization="fej"``) against a dense filter
+whose Jacobians are finite differences at the points FEJ claims (the pose the last
+prediction produced, each landmark's first estimate), and ``"standard"`` against the
+dense textbook filter of the seeds."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from slam_env.ekf import EKFSLAM
+from slam_env.ekf.models import (
+    MEASUREMENT_MODELS,
+    MOTION_MODELS,
+    odometry_action_cov,
+    velocity_control_cov,
+)
+from slam_env.geometry import wrap_angle
+
+ALPHAS = (0.02, 0.01, 0.02, 0.01)
+CONTROL_NOISE = (0.02, 0.01, 0.01, 0.05)
+Q = {
+    "range_bearing": np.array([[0.04**2, 1e-5], [1e-5, math.radians(2.0) ** 2]]),
+    "cartesian": np.array([[0.05**2, 2e-4], [2e-4, 0.03**2]]),
+}
+STEP = 1e-6  # central differences: error O(STEP²) on smooth models
+
+
+def numeric_jacobian(f, x: np.ndarray, angle_rows: tuple[int, ...] = ()) -> np.ndarray:
+    cols = []
+    for i in range(x.size):
+        dx = np.zeros_like(x)
+        dx[i] = STEP
+        diff = f(x + dx) - f(x - dx)
+        for r in angle_rows:
+            diff[r] = wrap_angle(diff[r])
+        cols.append(diff / (2 * STEP))
+    return np.stack(cols, axis=1)
+
+
+class DenseFEJ:
+    """FEJ-EKF-SLAM with full matrices, sequential corrections, no gate; every Jacobian
+    a finite difference of the models' f and h."""
+
+    def __init__(self, motion: str, measurement: str, pose0: np.ndarray, cov0: np.ndarray):
+        self.mm, self.hm = MOTION_MODELS[motion], MEASUREMENT_MODELS[measurement]
+        self.motion, self.measurement = motion, measurement
+        self.mu, self.Sigma = pose0.copy(), cov0.copy()
+        self.first = pose0.copy()  # first estimates: the predicted pose, then landmarks
+        self.slot: dict[int, int] = {}
+        self.bearing = (1,) if measurement == "range_bearing" else ()
+
+    def predict(self, u: np.ndarray) -> None:
+        pose = self.mu[:3].copy()
+        new = self.mm.motion(pose, u)
+        # G at the first estimates: f's Jacobian is [[1, 0, −Δy], [0, 1, Δx], [0, 0, 1]]
+        # in its displacement; FEJ takes the displacement between the first estimates.
+        G_x = np.eye(3)
+        G_x[0, 2] = -(new[1] - self.first[1])
+        G_x[1, 2] = new[0] - self.first[0]
+        V = numeric_jacobian(lambda v: self.mm.motion(pose, v), u, angle_rows=(2,))
+        cov_u = (
+            odometry_action_cov(u, ALPHAS)
+            if self.motion == "odometry"
+            else velocity_control_cov(u, CONTROL_NOISE)
+        )
+        d = self.mu.size
+        G = np.eye(d)
+        G[:3, :3] = G_x
+        R = np.zeros((d, d))
+        R[:3, :3] = V @ cov_u @ V.T
+        self.Sigma = G @ self.Sigma @ G.T + R
+        self.mu[:3] = new
+        self.first[:3] = new
+
+    def update(self, z: np.ndarray, ids: np.ndarray) -> None:
+        q = Q[self.measurement]
+        for zj, lid in zip(z, ids, strict=True):
+            if lid not in self.slot:
+                continue
+            s = 3 + 2 * self.slot[lid]
+            d = self.mu.size
+
+            def h_at(pose_and_landmark: np.ndarray) -> np.ndarray:
+                p, m = pose_and_landmark[:3], pose_and_landmark[3:]
+                return self.hm.h(p, m[None])[0]
+
+            point = np.concatenate([self.first[:3], self.first[s : s + 2]])
+            H5 = numeric_jacobian(h_at, point, angle_rows=self.bearing)
+            H = np.zeros((2, d))
+            H[:, :3], H[:, s : s + 2] = H5[:, :3], H5[:, 3:]
+            nu = zj - self.hm.h(self.mu[:3], self.mu[s : s + 2][None])[0]
+            if self.bearing:
+                nu[1] = wrap_angle(nu[1])
+            S = H @ self.Sigma @ H.T + q
+            K = self.Sigma @ H.T @ np.linalg.inv(S)
+            self.mu = self.mu + K @ nu
+            self.mu[2] = wrap_angle(self.mu[2])
+            A = np.eye(d) - K @ H
+            self.Sigma = A @ self.Sigma @ A.T + K @ q @ K.T
+        for zj, lid in zip(z, ids, strict=True):
+            if lid in self.slot:
+                continue
+            pose = self.mu[:3].copy()
+            m = self.hm.inverse(pose, zj[None])[0]
+            L = numeric_jacobian(lambda p, zj=zj: self.hm.inverse(p, zj[None])[0], pose)
+            W = numeric_jacobian(
+                lambda zz, pose=pose: self.hm.inverse(pose, zz[None])[0], zj.copy()
+            )
+            d = self.mu.size
+            cross = L @ self.Sigma[:3, :]
+            block = L @ self.Sigma[:3, :3] @ L.T + W @ q @ W.T
+            self.Sigma = np.block([[self.Sigma, cross.T], [cross, block]])
+            self.mu = np.concatenate([self.mu, m])
+            self.first = np.concatenate([self.first, m])
+            self.slot[lid] = (d - 3) // 2
+
+
+@pytest.mark.parametrize("motion", ["odometry", "velocity"])
+@pytest.mark.parametrize("measurement", ["range_bearing", "cartesian"])
+def test_fej_matches_a_dense_filter_with_jacobians_at_the_first_estimates(motion, measurement):
+    rng = np.random.default_rng(4)
+    truth = rng.uniform(-5, 5, size=(10, 2))
+    pose0 = np.array([0.3, -0.2, 0.4])
+    cov0 = np.diag([0.01, 0.02, 0.003])
+    f = EKFSLAM(
+        motion_model=motion,
+        measurement_model=measurement,
+        alphas=ALPHAS,
+        control_noise=CONTROL_NOISE,
+        measurement_cov=Q[measurement],
+        max_landmarks=10,
+        initial_pose=pose0,
+        initial_pose_cov=cov0,
+        linearization="fej",
+    )
+    dense = DenseFEJ(motion, measurement, pose0, cov0)
+    mm, hm = MOTION_MODELS[motion], MEASUREMENT_MODELS[measurement]
+    pose = pose0.copy()
+    for _ in range(40):
+        u = (
+            np.array([rng.uniform(-0.3, 0.3), rng.uniform(0.1, 0.6), rng.uniform(-0.3, 0.3)])
+            if motion == "odometry"
+            else np.array([rng.uniform(0.1, 0.6), rng.uniform(-0.4, 0.4)])
+        )
+        pose = mm.motion(pose, u)
+        f.predict(u)
+        dense.predict(u)
+        ids = rng.permutation(10)[: rng.integers(0, 5)]
+        z = hm.h(pose, truth[ids]) + rng.normal(size=(ids.size, 2)) * 0.03
+        f.update(z, ids)
+        dense.update(z, ids)
+        mean = f.mean
+        assert abs(wrap_angle(mean[2] - dense.mu[2])) < 1e-6
+        mean[2] = dense.mu[2]
+        np.testing.assert_allclose(mean, dense.mu, rtol=0, atol=1e-6)
+        np.testing.assert_allclose(f.cov, dense.Sigma, rtol=0, atol=1e-7)
+    assert f.n_landmarks >= 8
+
+
+def test_the_first_estimates_jacobian_is_fs_jacobian_where_the_estimates_agree():
+    """Before any correction the first estimate is the estimate: FEJ's G is then f's
+    Jacobian at the mean, by finite differences, and FEJ predicts as the standard EKF."""
+    pose0 = np.array([0.3, -0.2, 0.4])
+    u = np.array([0.2, 0.5, -0.1])
+    G = numeric_jacobian(lambda p: MOTION_MODELS["odometry"].motion(p, u), pose0, (2,))
+    cov0 = np.diag([0.0, 0.0, 1.0])  # P after = G P Gᵀ + R: column θ of G, read off
+    f = {
+        lin: EKFSLAM(
+            alphas=(0, 0, 0, 0),
+            measurement_cov=Q["range_bearing"],
+            max_landmarks=1,
+            initial_pose=pose0,
+            initial_pose_cov=cov0,
+            linearization=lin,
+        )
+        for lin in ("standard", "fej")
+    }
+    for filt in f.values():
+        filt.predict(u)
+    np.testing.assert_allclose(f["fej"].pose_cov[:, 2], G[:, 2], atol=1e-8)
+    np.testing.assert_array_equal(f["fej"].pose_cov, f["standard"].pose_cov)
