@@ -226,7 +226,7 @@ def _rllib_settings(args: argparse.Namespace) -> Any:
     from agents.rllib_env import require_rllib
 
     require_rllib("--engine rllib")  # before anything else is read or run
-    from agents.rllib_training import RLlibSettings
+    from agents.rllib_config import RLlibSettings
 
     chosen = {name: getattr(args, name) for name in RLLIB_FLAGS if getattr(args, name) is not None}
     return RLlibSettings(**chosen)

@@ -59,8 +59,8 @@ def sb3_sampler(cfg: Any, steps: int) -> Any:
 
 def rllib_algo(cfg: Any, runners: int) -> Any:
     """An RLlib PPO of ``slam-env train --engine rllib`` with ``runners`` EnvRunners."""
+    from agents.rllib_config import RLlibSettings, ppo_config
     from agents.rllib_env import register_rllib_envs
-    from agents.rllib_training import RLlibSettings, ppo_config
 
     register_rllib_envs()
     return ppo_config(cfg, RLlibSettings(num_env_runners=runners)).build_algo()

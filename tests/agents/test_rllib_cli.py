@@ -11,8 +11,8 @@ import pytest
 import agents.cli
 from agents.cli import main
 from agents.registry import agent_label, parse_agent_specs
+from agents.rllib_config import RLlibSettings, check_reachable, check_rllib_config
 from agents.rllib_env import RLLIB_INSTALL, RLlibNotInstalledError, require_rllib
-from agents.rllib_training import RLlibSettings, check_reachable, check_rllib_config
 from agents.training import ConfigError, config_from_dict
 
 
