@@ -150,9 +150,7 @@ def _train(cfg: TrainConfig, settings: RLlibSettings, algo_config: Any, out: Pat
         bar.close()
         if writer is not None:
             writer.close()
-        logdir = Path(algo.logdir)
-        algo.stop()
-        _remove_if_empty(logdir)
+        stop_algorithm(algo)
     return final
 
 
@@ -236,10 +234,13 @@ def _log_scalars(writer: Any, result: Mapping[str, Any], step: int, prefix: str 
             writer.add_scalar(name, float(value), step)
 
 
-def _remove_if_empty(folder: Path) -> None:
-    """Ray's Trainable makes a log folder under ~/ray_results that this run leaves empty."""
+def stop_algorithm(algo: Any) -> None:
+    """Stop an RLlib algorithm (its EnvRunners and learners), and remove the log folder
+    that Ray's Trainable made for it under ~/ray_results if the run left it empty."""
+    logdir = Path(algo.logdir)
+    algo.stop()
     with contextlib.suppress(OSError):  # not empty (or gone): leave it
-        folder.rmdir()
+        logdir.rmdir()
 
 
 class _Evaluator:

@@ -90,6 +90,8 @@ def main(argv: list[str] | None = None) -> None:
 
     import ray
 
+    from agents.rllib_training import stop_algorithm
+
     cfg = load_config(checkpoint_freq=0, eval_freq=0, progress_bar=False, n_envs=args.n_envs)
     ray.init(num_cpus=2, include_dashboard=False, log_to_driver=False)
     try:
@@ -111,7 +113,7 @@ def main(argv: list[str] | None = None) -> None:
                 start = time.perf_counter()
                 done = sample()
                 rates[label].append(done / (time.perf_counter() - start))
-        algo.stop()
+        stop_algorithm(algo)
     finally:
         ray.shutdown()
 
