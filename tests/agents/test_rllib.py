@@ -213,15 +213,22 @@ def test_the_ppo_config_means_what_the_sb3_config_means():
     model = algo.model_config
     assert model["fcnet_hiddens"] == [8, 16] and model["fcnet_activation"] == "relu"
     assert not model["vf_share_layers"] and model["free_log_std"]
+    assert algo.num_learners == 2 and algo.num_gpus_per_learner == 0
     native = ppo_config(config_from_dict(None), RLlibSettings())
     assert native.gym_env_vectorize_mode == "vector_entry_point"
     assert native.num_envs_per_env_runner == 2  # the config's n_envs
+    assert native.num_learners == 0  # the learner in the command's process
+    gpu = ppo_config(config_from_dict(None), RLlibSettings(learner_device="gpu"))
+    assert gpu.num_gpus_per_learner == 1
 
 
 def test_a_minibatch_larger_than_the_rollout_is_refused():
     cfg = config_from_dict({"n_envs": 1, "ppo": {"n_steps": 16, "batch_size": 64}})
     with pytest.raises(ValueError, match="batch_size"):
         ppo_config(cfg, RLlibSettings(num_env_runners=1))
+    # One minibatch of the whole rollout (16 steps × 2 sub-envs × 2 EnvRunners) is fine.
+    whole = config_from_dict({"n_envs": 2, "ppo": {"n_steps": 16, "batch_size": 64}})
+    assert ppo_config(whole, RLlibSettings(num_env_runners=2)).minibatch_size == 64
 
 
 @pytest.fixture

@@ -11,7 +11,12 @@ import pytest
 import agents.cli
 from agents.cli import main
 from agents.registry import agent_label, parse_agent_specs
-from agents.rllib_config import RLlibSettings, check_reachable, check_rllib_config
+from agents.rllib_config import (
+    RLlibSettings,
+    check_reachable,
+    check_rllib_config,
+    log_slam_metrics,
+)
 from agents.rllib_env import RLLIB_INSTALL, RLlibNotInstalledError, require_rllib
 from agents.training import ConfigError, config_from_dict
 
@@ -143,3 +148,51 @@ def test_an_address_where_something_listens_passes():
         server.bind(("127.0.0.1", 0))
         server.listen()
         check_reachable(f"127.0.0.1:{server.getsockname()[1]}", timeout_s=5)
+
+
+class _Episode:
+    """What ``log_slam_metrics`` reads of an RLlib episode: its infos, reset first."""
+
+    def __init__(self, infos):
+        self._infos = infos
+
+    def get_infos(self):
+        return list(self._infos)
+
+
+class _MetricsLogger:
+    def __init__(self):
+        self.logged = {}
+
+    def log_value(self, key, value, reduce):
+        assert reduce == "mean"
+        self.logged[key] = value
+
+
+def test_the_episode_end_logs_the_slam_metrics_of_the_steps_taken():
+    def step(collision, known, **final):
+        return {"collision": collision, "pose_nees": 2.0, "landmarks_known": known, **final}
+
+    final = {"landmark_ids": [0, 1, 2, 3], "entropy": -5.0, "map_rmse": 0.25, "diverged": False}
+    infos = [
+        step(True, 0, **final),  # the reset's info: not a step, its contact not counted
+        step(True, 1),
+        step(False, 3),
+        step(True, 4, **final),  # the last step's info holds the end figures
+    ]
+    logger = _MetricsLogger()
+    log_slam_metrics(episode=_Episode(infos), metrics_logger=logger, env_runner=None)
+    assert logger.logged["slam/collisions"] == 2
+    assert logger.logged["slam/mapped_share"] == 1.0  # the last info's 4 of 4
+    assert logger.logged["slam/final_entropy"] == -5.0
+    assert logger.logged["slam/map_rmse"] == 0.25
+    assert logger.logged["slam/mean_pose_nees"] == 2.0
+    assert logger.logged["slam/steps_to_90pct_mapped"] == 3
+
+
+def test_valid_rllib_settings_are_kept():
+    settings = RLlibSettings(
+        address="10.0.0.1:6379", num_env_runners=0, num_envs_per_runner=1, num_learners=2
+    )
+    assert (settings.num_envs_per_runner, settings.num_learners) == (1, 2)
+    assert RLlibSettings().num_learners == 0  # the learner in the command's process
