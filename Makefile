@@ -3,8 +3,13 @@ PYTHON ?= python3
 VENV ?= .venv
 PY := $(VENV)/bin/python
 OUT ?= out
+# Ray RLlib pins gymnasium==1.2.2: the 'rllib' extra gets a virtual environment of its own.
+RLLIB_VENV ?= .venv-rllib
+RPY := $(RLLIB_VENV)/bin/python
+# The env contract (checkers, native vector env, options), run again on Ray's gymnasium.
+CONTRACT_TESTS := tests/test_checkers.py tests/test_vector.py tests/test_options.py
 
-.PHONY: setup demo test test-slow lint bench clean
+.PHONY: setup setup-rllib demo test test-slow test-rllib lint bench clean
 
 setup: $(VENV)/.installed
 
@@ -16,6 +21,17 @@ $(VENV)/.installed: pyproject.toml
 	$(PY) -m pip install --quiet -e '.[dev]'
 	touch $@
 
+setup-rllib: $(RLLIB_VENV)/.installed
+
+$(RLLIB_VENV)/.installed: pyproject.toml
+	$(PYTHON) -m venv $(RLLIB_VENV)
+	$(RPY) -m pip install --quiet --upgrade pip
+	$(RPY) -m pip install --quiet torch==2.13.0
+	$(RPY) -m pip install --quiet -e '.[dev,rllib]'
+	# The extra must keep the CPU torch (an unpinned one pulls several GB of CUDA).
+	$(RPY) -c "import torch; assert torch.__version__.startswith('2.13.0+cpu'), torch.__version__"
+	touch $@
+
 demo: setup  ## the main job: an exploration episode on the default world, metrics and pictures
 	SDL_VIDEODRIVER=dummy $(VENV)/bin/slam-env demo --out $(OUT)
 
@@ -24,6 +40,10 @@ test: setup  ## the default test suite (what CI runs)
 
 test-slow: setup  ## long runs: soak, long NEES, training
 	SDL_VIDEODRIVER=dummy $(PY) -m pytest -n 2 -q -m slow
+
+test-rllib: setup-rllib  ## Ray RLlib (a 2-node local cluster), and the env contract on Ray's gymnasium
+	SDL_VIDEODRIVER=dummy $(RPY) -m pytest -q -m rllib
+	SDL_VIDEODRIVER=dummy $(RPY) -m pytest -n 2 -q -m "not slow" $(CONTRACT_TESTS)
 
 lint: setup
 	$(VENV)/bin/ruff check .
@@ -36,4 +56,4 @@ bench: setup
 	if command -v valgrind >/dev/null; then $(PY) benchmarks/bench_instructions.py; fi
 
 clean:
-	rm -rf $(VENV) $(OUT) .pytest_cache .ruff_cache
+	rm -rf $(VENV) $(RLLIB_VENV) $(OUT) .pytest_cache .ruff_cache

@@ -1,9 +1,11 @@
 """The ``slam-env`` command (also ``python -m agents``).
 
     slam-env train    [--config YAML] [--total-steps N] [--n-envs K] [--seed S] [--out DIR]
-                      [--vectorization native|subproc|dummy]
-    slam-env evaluate --agents random,frontier,infogain,ppo:PATH [--episodes 20] [--seed 0]
-                      [--out DIR] [--max-steps N] [--env-option KEY=VALUE ...]
+                      [--vectorization native|subproc|dummy] [--engine sb3|rllib]
+                      [--address ADDR] [--num-env-runners R] [--num-envs-per-runner K]
+                      [--learner-device cpu|gpu] [--num-learners L]   (the last five: rllib)
+    slam-env evaluate --agents random,frontier,infogain,ppo:PATH,rllib:PATH [--episodes 20]
+                      [--seed 0] [--out DIR] [--max-steps N] [--env-option KEY=VALUE ...]
     slam-env evaluate --agents ... --suite default|smoke [--out DIR]
     slam-env demo     [--agent SPEC] [--seed S] [--out DIR] [--no-gif] [--max-steps N]
 
@@ -140,6 +142,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--seed", type=_non_negative_int, help="training seed")
     p.add_argument("--out", type=str, help="output folder (model, config, logs)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    _add_rllib_arguments(p)
 
     p = sub.add_parser(
         "evaluate",
@@ -149,7 +152,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--agents",
         required=True,
-        help="comma-separated agent specs: random, frontier, infogain, ppo, ppo:PATH",
+        help="comma-separated agent specs: random, frontier, infogain, ppo, ppo:PATH, rllib:PATH",
     )
     p.add_argument("--episodes", type=_positive_int, default=20, help="episodes per agent")
     p.add_argument("--seed", type=_non_negative_int, default=0, help="episode i uses seed+i")
@@ -177,12 +180,65 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+#: The ``train`` flags that only the RLlib engine reads (dest names).
+RLLIB_FLAGS = (
+    "address",
+    "num_env_runners",
+    "num_envs_per_runner",
+    "learner_device",
+    "num_learners",
+)
+
+
+def _add_rllib_arguments(p: argparse.ArgumentParser) -> None:
+    """``train``'s engine choice and the RLlib engine's cluster flags."""
+    p.add_argument(
+        "--engine",
+        choices=("sb3", "rllib"),
+        default="sb3",
+        help="sb3: stable-baselines3 in this process (default); rllib: Ray RLlib, on a "
+        "Ray cluster (needs the 'rllib' extra)",
+    )
+    p.add_argument(
+        "--address", type=str, help="rllib: the Ray cluster to join (default: RAY_ADDRESS or local)"
+    )
+    p.add_argument("--num-env-runners", type=_non_negative_int, help="rllib: EnvRunners (1)")
+    p.add_argument(
+        "--num-envs-per-runner",
+        type=_positive_int,
+        help="rllib: sub-envs each (the config's n_envs)",
+    )
+    p.add_argument("--learner-device", choices=("cpu", "gpu"), help="rllib: the learners' device")
+    p.add_argument(
+        "--num-learners", type=_non_negative_int, help="rllib: learner actors (0: in this process)"
+    )
+
+
+def _rllib_settings(args: argparse.Namespace) -> Any:
+    """The RLlib engine's settings from the flags (``ValueError`` if given to sb3)."""
+    given = [
+        f"--{name.replace('_', '-')}" for name in RLLIB_FLAGS if getattr(args, name) is not None
+    ]
+    if args.engine != "rllib":
+        if given:
+            raise ValueError(f"{', '.join(given)} only apply with --engine rllib")
+        return None
+    from agents.rllib_env import require_rllib
+
+    require_rllib("--engine rllib")  # before anything else is read or run
+    from agents.rllib_config import RLlibSettings
+
+    chosen = {name: getattr(args, name) for name in RLLIB_FLAGS if getattr(args, name) is not None}
+    return RLlibSettings(**chosen)
+
+
 def _run_train(args: argparse.Namespace) -> int:
     from rich.console import Console
     from rich.markup import escape
 
     from agents.training import load_config, train
 
+    settings = _rllib_settings(args)
     cfg = load_config(
         args.config,
         total_timesteps=args.total_steps,
@@ -193,7 +249,12 @@ def _run_train(args: argparse.Namespace) -> int:
         progress_bar=False if args.no_progress else None,
     )
     check_writable_dir(cfg.out_dir, "--out" if args.out else "the config's out_dir")
-    path = train(cfg)
+    if settings is None:
+        path = train(cfg)
+    else:
+        from agents.rllib_training import train_rllib
+
+        path = train_rllib(cfg, settings)
     console = Console()
     console.print(f"model: {escape(str(path))}")
     summary_file = path.parent / "training_summary.json"

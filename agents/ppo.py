@@ -59,11 +59,12 @@ def check_spaces(
 
 
 class PPOAgent:
-    """A trained stable-baselines3 PPO policy with the :class:`agents.base.Agent`
-    interface. Deterministic (the mean action) unless told otherwise.
+    """A trained PPO policy with the :class:`agents.base.Agent` interface.
+    Deterministic (the mean action) unless told otherwise.
 
     Attributes:
-        model: the ``stable_baselines3.PPO`` model.
+        model: the ``stable_baselines3.PPO`` model (or an RLlib policy with its
+            ``predict``, :class:`agents.rllib_agent.RLlibPolicy`).
         path: the file it was loaded from.
         config: the training config saved next to it (``<name>.yaml``), or ``None``.
 
@@ -125,10 +126,13 @@ def load_ppo_agent(path: str | Path, env: gym.Env | None = None) -> PPOAgent:
             env.action_space,
             source=f"PPO policy {file}",
         )
-    config_file = file.with_suffix(".yaml")
-    config = None
-    if config_file.is_file():
-        with open(config_file, encoding="utf-8") as fh:
-            loaded = yaml.safe_load(fh)
-        config = loaded if isinstance(loaded, dict) else None
-    return PPOAgent(model, path=file, config=config)
+    return PPOAgent(model, path=file, config=saved_config(file.with_suffix(".yaml")))
+
+
+def saved_config(config_file: Path) -> dict[str, Any] | None:
+    """The training config saved next to a policy (``<name>.yaml``), or ``None``."""
+    if not config_file.is_file():
+        return None
+    with open(config_file, encoding="utf-8") as fh:
+        loaded = yaml.safe_load(fh)
+    return loaded if isinstance(loaded, dict) else None

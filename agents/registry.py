@@ -9,6 +9,7 @@ An agent spec is a short string, as the command line takes it:
 | ``infogain`` | :class:`agents.infogain.InfoGainAgent`: greedy expected information gain |
 | ``ppo``      | the shipped PPO policy, ``agents/policies/ppo_active_slam.zip``      |
 | ``ppo:PATH`` | a PPO policy saved by ``slam-env train`` (a stable-baselines3 ``.zip``) |
+| ``rllib:PATH`` | an RLlib checkpoint saved by ``slam-env train --engine rllib`` (a folder) |
 
 Heuristic agents are imported only when asked for, so that one agent's import cost
 (or absence) never affects another.
@@ -37,7 +38,7 @@ _HEURISTICS: dict[str, tuple[str, str]] = {
     "infogain": ("agents.infogain", "InfoGainAgent"),
 }
 
-AGENT_NAMES = ("random", *_HEURISTICS, "ppo", "ppo:PATH")
+AGENT_NAMES = ("random", *_HEURISTICS, "ppo", "ppo:PATH", "rllib:PATH")
 
 
 def make_env(
@@ -71,6 +72,8 @@ def agent_label(spec: str) -> str:
     spec = spec.strip()
     if spec.startswith("ppo:"):
         return f"ppo:{Path(spec[4:]).stem}"
+    if spec.startswith("rllib:"):
+        return f"rllib:{Path(spec[6:]).name}"
     return spec
 
 
@@ -125,4 +128,11 @@ def make_agent(spec: str, env: gym.Env, seed: int | None = None) -> Agent:
         if not path:
             raise ValueError("agent spec 'ppo:' needs a path, e.g. 'ppo:runs/ppo/model.zip'")
         return load_ppo_agent(path, env)
+    if spec.startswith("rllib:"):
+        from agents.rllib_agent import load_rllib_agent
+
+        path = spec[6:].strip()
+        if not path:
+            raise ValueError("agent spec 'rllib:' needs a path, e.g. 'rllib:runs/rllib/model'")
+        return load_rllib_agent(path, env)
     raise ValueError(f"unknown agent {spec!r}; choose from {', '.join(AGENT_NAMES)}")

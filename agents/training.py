@@ -269,6 +269,16 @@ def load_config(path: str | Path | None = None, **overrides: Any) -> TrainConfig
     return config_from_dict(data)
 
 
+def as_train_config(config: TrainConfig | Mapping[str, Any] | str | Path | None) -> TrainConfig:
+    """A validated config from a :class:`TrainConfig`, a mapping, a YAML path, or
+    ``None`` (the defaults)."""
+    if isinstance(config, TrainConfig):
+        return validate_config(config)
+    if isinstance(config, Mapping):
+        return config_from_dict(config)
+    return load_config(config)
+
+
 def config_to_dict(cfg: TrainConfig) -> dict[str, Any]:
     return dataclasses.asdict(cfg)
 
@@ -407,13 +417,7 @@ def train(config: TrainConfig | Mapping[str, Any] | str | Path | None = None) ->
 
     from agents.train_timing import StepTimer, TimedPPO, time_shares
 
-    if isinstance(config, TrainConfig):
-        cfg = validate_config(config)
-    elif isinstance(config, Mapping):
-        cfg = config_from_dict(config)
-    else:
-        cfg = load_config(config)
-
+    cfg = as_train_config(config)
     torch.set_num_threads(cfg.torch_threads)
     policy = _check_env(cfg)
     out = Path(cfg.out_dir)

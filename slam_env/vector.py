@@ -270,6 +270,10 @@ class SlamVectorEnv(VectorEnv):
         return self._renderers[index].render(frame)
 
     def close_extras(self, **kwargs: Any) -> None:
+        if not hasattr(self, "_renderers"):
+            # A constructor that refused its arguments: nothing to close (gymnasium
+            # 1.2's VectorEnv.__del__ closes such a half-made env).
+            return
         for renderer in self._renderers:
             if renderer is not None:
                 renderer.close()

@@ -13,13 +13,54 @@ import pytest
 from gymnasium.utils.env_checker import (
     check_env as gym_check_env,
 )
-from gymnasium.utils.env_checker import (
-    check_returned_data_not_reused,
-    check_step_determinism,
-)
+from gymnasium.utils.env_checker import check_step_determinism
 from stable_baselines3.common.env_checker import check_env as sb3_check_env
 
 import slam_env  # noqa: F401  (registers the env IDs)
+
+
+def _objects(data, found: list) -> list:
+    """Every container and array inside ``data`` (an observation or an info)."""
+    if isinstance(data, (dict, list, tuple, np.ndarray)):
+        found.append(data)
+    if isinstance(data, dict):
+        for value in data.values():
+            _objects(value, found)
+    elif isinstance(data, (list, tuple)):
+        for value in data:
+            _objects(value, found)
+    return found
+
+
+def _returned_data_not_reused(env: gym.Env, seed: int = 123) -> None:
+    """That reset and step return fresh observations and infos (no container or array
+    memory shared between two calls); gymnasium 1.2, which Ray RLlib pins, lacks
+    gymnasium's own ``check_returned_data_not_reused``."""
+    env.action_space.seed(seed)
+    calls = [env.reset(seed=seed)]
+    for _ in range(2):
+        obs, _, terminated, truncated, info = env.step(env.action_space.sample())
+        calls.append((obs, info))
+        if terminated or truncated:
+            break
+    calls.append(env.reset(seed=seed))
+    held = [_objects(call, []) for call in calls]
+    for i, first in enumerate(held):
+        for second in held[i + 1 :]:
+            for a in first[1:]:  # the (obs, info) tuple itself is each call's own
+                for b in second[1:]:
+                    shared = a is b or (
+                        isinstance(a, np.ndarray)
+                        and isinstance(b, np.ndarray)
+                        and np.shares_memory(a, b)
+                    )
+                    assert not shared, f"two calls returned a shared {type(a).__name__}"
+
+
+try:
+    from gymnasium.utils.env_checker import check_returned_data_not_reused
+except ImportError:  # gymnasium < 1.3
+    check_returned_data_not_reused = _returned_data_not_reused
 
 RAW, ACTIVE = "slam_env/Landmarks-v0", "slam_env/ActiveSLAM-v0"
 SPARSE = {"n_landmarks": 1, "max_range": 1.0}
