@@ -203,10 +203,10 @@ class ActiveCore(BatchCore):
         filters.update(self.updated)
         failed = self.updated & (filters.error != 0)
         self.failed |= failed
-        if self.associates:
+        if self.associates:  # (a failed update has no statuses: it scores nothing)
             score_association(
                 filters.assigned, filters.status, raw.det_ids, filters.counts, self._n_before,
-                self.slot_truth, touched & ~failed, self.score_step, self.score_episode,
+                self.slot_truth, touched, self.score_step, self.score_episode,
             )  # fmt: skip
         # A failed update changed nothing: it counts no rejection either.
         count_rejections(filters.status, filters.counts, self.updated & ~failed, self.in_a_row)

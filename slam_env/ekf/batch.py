@@ -16,13 +16,12 @@ class FilterBatch:
     """The state of B filters configured as ``template`` (an :class:`EKFSLAM`, whose own
     state is not used): ``x (B, dmax)``, ``P (B, dmax, dmax)``, ``n``, ``id_to_slot``,
     ``slot_to_id``, ``n_rejected``, ``first`` and ``tentative``, laid out as the
-    kernels take them,
-    with the inputs and outputs of a step. :meth:`predict` and :meth:`update` step the
-    filters
-    whose mask is set, each atomically (a filter whose step fails keeps its state and
-    gets an error code in :attr:`error`); :meth:`filter` is filter b as an
-    :class:`EKFSLAM` over the same storage. The inputs are the caller's to fill and are
-    not checked (a vector env's own stream is well-formed by construction).
+    kernels take them, with the inputs and outputs of a step. :meth:`predict` and
+    :meth:`update` step the filters whose mask is set, each atomically (a filter whose
+    step fails keeps its state and gets an error code in :attr:`error`); :meth:`filter`
+    is filter b as an :class:`EKFSLAM` over the same storage. The inputs are the
+    caller's to fill and are not checked (a vector env's own stream is well-formed by
+    construction).
 
     Args:
         num_filters: B.
