@@ -196,7 +196,8 @@ class ActiveCore(BatchCore):
             out.odometry, out.detections, out.ids, touched, filters.u, filters.z, filters.ids,
             raw.det_count, filters.counts, not self.associates,
         )  # fmt: skip
-        np.copyto(self._n_before, filters.n)
+        if self.associates:
+            np.copyto(self._n_before, filters.n)
         filters.predict(stepping)
         self.failed |= stepping & (filters.error != 0)
         np.logical_and(touched, filters.counts > 0, out=self.updated)

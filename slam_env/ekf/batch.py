@@ -61,7 +61,9 @@ class FilterBatch:
             self._joint_gates = joint_gates(template.association_gates[0], d)
             self._held = np.empty_like(self.tentative)
         # The workspaces grow with the most observations an update has had (a step
-        # sees far fewer landmarks than the padded array has rows).
+        # sees far fewer landmarks than the padded array has rows): a kernel that finds
+        # its workspace too small refuses the call, changing nothing, and is called
+        # again once it has grown (nothing to check on the common path).
         self._room = -1
         self._grow_workspaces(min(d, 8))
         self._views: dict[int, EKFSLAM] = {}
@@ -109,25 +111,30 @@ class FilterBatch:
         :attr:`z` of landmarks :attr:`ids` (where the filters associate, of the
         landmarks they choose: :attr:`assigned`, each one's smallest D² in
         :attr:`nearest`); per observation :attr:`status` and :attr:`nis`."""
-        self._grow_workspaces(min(int(self.counts.max(initial=0)), self.z.shape[1]))
         ids = self.ids
         if self.associates:
-            associated = association.associate(
-                self.x, self.P, self.n, self.params, self.modes, self._joint_gates, self.z,
-                self.counts, mask, self.assigned, self.nearest, self.tentative, self._held,
-                *self._assoc_work,
-            )  # fmt: skip
-            if not associated:
-                raise RuntimeError("the association's workspace is too small")  # a bug here
+            if not self._associate(mask):
+                self._grow_workspaces(min(int(self.counts.max()), self.z.shape[1]))
+                self._associate(mask)
             ids = self.assigned
-        ekf.update(
+        update = (
             self.x, self.P, self.n, self.id_to_slot, self.slot_to_id, self.n_rejected,
             self.first, self.params, self.modes, self.z, ids, self.counts, mask,
-            self.status, self.nis, self.error, self._work,
+            self.status, self.nis, self.error,
         )  # fmt: skip
+        if not ekf.update(*update, self._work):
+            self._grow_workspaces(min(int(self.counts.max()), self.z.shape[1]))
+            ekf.update(*update, self._work)
         if self.associates:  # the tentative sightings of the updates that succeeded
             kept = mask & (self.error == 0)
             self.tentative[kept] = self._held[kept]
+
+    def _associate(self, mask: np.ndarray) -> bool:
+        return association.associate(
+            self.x, self.P, self.n, self.params, self.modes, self._joint_gates, self.z,
+            self.counts, mask, self.assigned, self.nearest, self.tentative, self._held,
+            *self._assoc_work,
+        )  # fmt: skip
 
     # Pickling: the views are rebuilt on demand over the unpickled arrays.
     def __getstate__(self) -> dict[str, Any]:

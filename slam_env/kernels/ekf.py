@@ -759,7 +759,7 @@ def update(
     nis: np.ndarray,
     error: np.ndarray,
     work: np.ndarray,
-) -> None:
+) -> bool:
     """Update every world b with ``mask[b]`` with its first ``counts[b]`` observations
     ``z[b, :counts[b]]`` (z: (B, D, 2)) of landmarks ``ids[b, :counts[b]]`` ((B, D)).
 
@@ -777,7 +777,8 @@ def update(
     :func:`update_workspace_size` ``(dmax, K)`` entries, K the largest count of the
     worlds updated (at most D: a workspace grows with the detections a step has, not
     with the rows of the padded array), shared by the worlds (they are updated one after
-    the other)."""
+    the other). Returns False, with every world asked for refused
+    (:data:`SMALL_WORKSPACE`) and nothing changed, where it is smaller."""
     B = x.shape[0]
     dmax = x.shape[1]
     D = z.shape[1]
@@ -792,7 +793,7 @@ def update(
             nis[b, j] = math.nan
         error[b] = OK if room or not mask[b] else SMALL_WORKSPACE
     if not room:
-        return
+        return False
     # The workspace: the working mean, the factor rows U, the rows C (Cᵀ = H P, then
     # the new landmarks' cross-covariances), the corrected pose rows PR, the small
     # matrices, ν and G ν, and the per-observation scratch.
@@ -898,3 +899,4 @@ def update(
         )  # fmt: skip
         n[b] += new
         n_rejected[b] += rejected
+    return True
