@@ -11,7 +11,7 @@ from typing import Any
 
 from slam_env.budget import check_budget, world_size
 from slam_env.config import EnvConfig, make_config, plain, with_defaults
-from slam_env.ekf import CORRECTION_MODES, DATA_ASSOCIATIONS, LINEARIZATIONS
+from slam_env.ekf import CORRECTION_MODES, DATA_ASSOCIATIONS, LINEARIZATIONS, checks
 from slam_env.wrappers import DEFAULT_GATE, OBSERVATION_MODES, ActiveSLAMRewardWeights
 
 # Proximity beams in the active-SLAM observation, unless the options set them.
@@ -91,19 +91,11 @@ class ActiveSLAMOptions:
             raise ValueError(
                 f"observation must be one of {ACTIVE_OBSERVATION_MODES}, got {self.observation!r}"
             )
-        if values["correction"] not in CORRECTION_MODES:
-            raise ValueError(
-                f"correction must be one of {CORRECTION_MODES}, got {self.correction!r}"
-            )
-        for name, choices in (
-            ("data_association", DATA_ASSOCIATIONS),
-            ("linearization", LINEARIZATIONS),
-        ):
-            if values[name] not in choices:
-                raise ValueError(f"{name} must be one of {choices}, got {values[name]!r}")
-        sightings = values["new_landmark_sightings"]
-        if isinstance(sightings, bool) or sightings not in (1, 2):
-            raise ValueError(f"new_landmark_sightings must be 1 or 2, got {sightings!r}")
+        # The filter's own checks, run before anything is built.
+        checks.choice("correction", values["correction"], CORRECTION_MODES)
+        checks.choice("data_association", values["data_association"], DATA_ASSOCIATIONS)
+        checks.choice("linearization", values["linearization"], LINEARIZATIONS)
+        checks.new_landmark_sightings(values["new_landmark_sightings"])
         gate = values["gate"]
         if gate is not None and not _number("gate", gate) > 0.0:
             raise ValueError(f"gate must be > 0 (a χ² threshold) or None, got {gate!r}")

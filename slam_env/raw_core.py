@@ -429,8 +429,7 @@ class RawCore(BatchCore):
         """(D,) int64 (or (B, D) for a slice): the true landmark ID of each detection
         row of the observation, -1 for clutter and padding."""
         rows = np.arange(self.max_detections)
-        ids = np.where(rows < self.det_count[index, None], self.det_ids[index], -1)
-        return ids.reshape(-1) if isinstance(index, int) else ids
+        return np.where(rows < self.det_count[index, None], self.det_ids[index], -1)
 
     def infos(self) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
         """Every sub-env's info, stacked (B, …), fresh arrays, and the masks of the keys

@@ -96,6 +96,20 @@ def noise_params(value: Any, name: str) -> tuple[float, float, float, float]:
     return out[0], out[1], out[2], out[3]
 
 
+def choice(name: str, value: Any, choices: tuple[str, ...]) -> str:
+    """``value`` if it is one of ``choices``, else a ``ValueError`` naming them."""
+    if value not in choices:
+        raise ValueError(f"{name} must be one of {choices}, got {value!r}")
+    return value
+
+
+def new_landmark_sightings(value: Any) -> int:
+    """The sightings a new landmark needs: 1 or 2 (bool refused)."""
+    if isinstance(value, (bool, np.bool_)) or value not in (1, 2):
+        raise ValueError(f"new_landmark_sightings must be 1 or 2, got {value!r}")
+    return int(value)
+
+
 def landmark_id(value: Any) -> int:
     """One landmark ID as an int (numpy integers accepted, bool refused)."""
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)):

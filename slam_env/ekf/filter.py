@@ -299,22 +299,11 @@ class EKFSLAM:
                 f"measurement_model must be one of {tuple(MEASUREMENT_MODELS)}, "
                 f"got {measurement_model!r}"
             )
-        if correction not in CORRECTION_MODES:
-            raise ValueError(f"correction must be one of {CORRECTION_MODES}, got {correction!r}")
-        if data_association not in DATA_ASSOCIATIONS:
-            raise ValueError(
-                f"data_association must be one of {DATA_ASSOCIATIONS}, got {data_association!r}"
-            )
-        if linearization not in LINEARIZATIONS:
-            raise ValueError(
-                f"linearization must be one of {LINEARIZATIONS}, got {linearization!r}"
-            )
+        checks.choice("correction", correction, CORRECTION_MODES)
+        checks.choice("data_association", data_association, DATA_ASSOCIATIONS)
+        checks.choice("linearization", linearization, LINEARIZATIONS)
         gates = self._check_association_gates(match_gate, new_landmark_gate)
-        sightings = new_landmark_sightings
-        if isinstance(sightings, (bool, np.bool_)) or sightings not in (1, 2):
-            raise ValueError(
-                f"new_landmark_sightings must be 1 or 2, got {new_landmark_sightings!r}"
-            )
+        sightings = checks.new_landmark_sightings(new_landmark_sightings)
         self._alphas = None if alphas is None else checks.noise_params(alphas, "alphas")
         self._control_noise = (
             None if control_noise is None else checks.noise_params(control_noise, "control_noise")
@@ -345,7 +334,7 @@ class EKFSLAM:
         self._association = data_association
         self._linearization = linearization
         self._association_gates = gates
-        self._sightings = int(new_landmark_sightings)
+        self._sightings = sightings
         self._Q = Q
         self._N = int(max_landmarks)
         self._initial_pose = pose0
@@ -723,17 +712,14 @@ class EKFSLAM:
         landmarks are initialised from the corrected belief, in the given order (seed
         000 §2.2). Returns an :class:`UpdateResult`.
         """
-        if self.associates:
-            zb, idb = checks.observations(z, ids)
-            if (idb != -1).any():
-                raise ValueError(
-                    f"data_association={self._association!r} chooses the landmarks itself: "
-                    f"ids must be None or all -1, got {idb[0].tolist()}"
-                )
-        elif ids is None:
+        if ids is None and not self.associates:
             raise TypeError("ids are required with data_association='known'")
-        else:
-            zb, idb = checks.observations(z, ids)
+        zb, idb = checks.observations(z, ids)
+        if self.associates and (idb != -1).any():
+            raise ValueError(
+                f"data_association={self._association!r} chooses the landmarks itself: "
+                f"ids must be None or all -1, got {idb[0].tolist()}"
+            )
         k = idb.shape[1]
         if k > self._max_obs:
             self._grow_workspace(k)

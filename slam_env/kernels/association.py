@@ -57,6 +57,7 @@ from slam_env.kernels.ekf import (
     Q11,
     SIGHTINGS,
     TENTATIVE_ID,
+    largest_count,
 )
 from slam_env.kernels.models import (
     innovation,
@@ -424,10 +425,7 @@ def associate(
     are smaller."""
     B = x.shape[0]
     M = (x.shape[1] - 3) // 2
-    D = 0
-    for b in range(B):
-        if mask[b]:
-            D = max(D, min(max(counts[b], 0), z.shape[1]))
+    D = largest_count(counts, mask, z.shape[1])
     floats, ints = association_workspace_sizes(M, D)
     if fwork.shape[0] < floats or iwork.shape[0] < ints:
         return False

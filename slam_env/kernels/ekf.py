@@ -74,10 +74,8 @@ from slam_env.kernels.models import (
 
 # params columns
 NOISE, Q00, Q01, Q11, GATE, MATCH_GATE, NEW_GATE, SIGHTINGS = 0, 4, 5, 6, 7, 8, 9, 10
-N_PARAMS = 11
 # modes columns, and the codes of each mode
 MOTION, MEASUREMENT, CORRECTION, ASSOCIATION, LINEARIZATION = 0, 1, 2, 3, 4
-N_MODES = 5
 SEQUENTIAL, BATCH = 0, 1
 KNOWN, NEAREST_NEIGHBOR, JCBB = 0, 1, 2
 STANDARD, FEJ = 0, 1
@@ -127,6 +125,17 @@ def update_workspace_size(dmax: int, max_obs: int) -> int:
     rows and up to ``max_obs`` observations per world (``z.shape[1]``)."""
     r = 2 * max_obs
     return dmax * (2 * r + 4) + N_SMALL * r * r + 2 * r + 13 * max_obs
+
+
+@kernel
+def largest_count(counts: np.ndarray, mask: np.ndarray, D: int) -> int:
+    """The most observations one world of ``mask`` has (counts clipped to [0, D]): what
+    a call's workspaces must hold."""
+    K = 0
+    for b in range(counts.shape[0]):
+        if mask[b]:
+            K = max(K, min(max(counts[b], 0), D))
+    return K
 
 
 @kernel
@@ -550,14 +559,14 @@ def _correct_group(
 
 
 @kernel
-def _check_observations(z: np.ndarray, ids: np.ndarray, k: int, n_ids: int, unassigned: int) -> int:
+def _check_observations(z: np.ndarray, ids: np.ndarray, k: int, n_ids: int, lowest: int) -> int:
     """BAD_INPUT for a non-finite measurement, BAD_ID / DUPLICATE_ID for the IDs
-    (``unassigned``: the lowest ID allowed, -1 where the filter associates)."""
+    (``lowest``: the lowest ID allowed, TENTATIVE_ID where the filter associates)."""
     for j in range(k):
         if not (math.isfinite(z[j, 0]) and math.isfinite(z[j, 1])):
             return BAD_INPUT
         lid = ids[j]
-        if lid < unassigned or lid >= n_ids:
+        if lid < lowest or lid >= n_ids:
             return BAD_ID
         for i in range(j):
             if ids[i] == lid and lid >= 0:
@@ -782,10 +791,7 @@ def update(
     B = x.shape[0]
     dmax = x.shape[1]
     D = z.shape[1]
-    K = 0
-    for b in range(B):
-        if mask[b]:
-            K = max(K, min(max(counts[b], 0), D))
+    K = largest_count(counts, mask, D)
     room = work.shape[0] >= update_workspace_size(dmax, K)
     for b in range(B):
         for j in range(D):
