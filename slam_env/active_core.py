@@ -25,11 +25,17 @@ from slam_env.config import EnvConfig
 from slam_env.coverage import CoverageGrid
 from slam_env.ekf import EKFSLAM
 from slam_env.ekf.batch import FilterBatch
-from slam_env.kernels.association_score import SCORE_NAMES, score_association
-from slam_env.kernels.diagnostics import DIAGNOSTICS, belief_diagnostics
-from slam_env.kernels.divergence import count_rejections, diverged
-from slam_env.kernels.observe import filter_inputs
-from slam_env.kernels.reward import active_slam_reward
+from slam_env.kernels.active_step import belief_outputs, filter_step, step_reward
+from slam_env.kernels.association_score import SCORE_NAMES
+from slam_env.kernels.diagnostics import (
+    DIAGNOSTICS,
+    HEADING_ERROR,
+    MAP_RMSE,
+    POSE_ERROR,
+    POSE_NEES,
+    POSE_STD,
+)
+from slam_env.kernels.divergence import diverged
 from slam_env.layouts import Layout
 from slam_env.local_observation import LocalEncoding
 from slam_env.overlay import BeliefOverlay
@@ -118,6 +124,7 @@ class ActiveCore(BatchCore):
         self.failed = np.zeros(b, dtype=bool)
         self.in_a_row = np.zeros(b, dtype=np.int64)
         self.updated = np.zeros(b, dtype=bool)
+        self._counted = np.zeros(b, dtype=bool)  # the updates that succeeded
         self.diagnostics = np.zeros((len(DIAGNOSTICS), b))
         self.entropy = np.zeros(b)
         self._entropy_ok = np.zeros(b, dtype=bool)
@@ -128,6 +135,7 @@ class ActiveCore(BatchCore):
         raw_width = sum(raw.observation_space[k].shape[0] for k in self._passthrough)
         # The egocentric observation's tail: the raw proximity readings, then coverage.
         self._tail = np.zeros((b, raw_width + coverage_width), dtype=np.float32)
+        self._no_readings = np.zeros((b, 0), dtype=np.float32)
         self.egocentric = (
             np.zeros((b, self.observation_space.shape[0]), np.float32)
             if (options.observation == "egocentric")
@@ -192,74 +200,74 @@ class ActiveCore(BatchCore):
                 self._encoding.reset(b)
             touched[b] = True
         out = raw.out
-        filter_inputs(
-            out.odometry, out.detections, out.ids, touched, filters.u, filters.z, filters.ids,
-            raw.det_count, filters.counts, not self.associates,
-        )  # fmt: skip
-        if self.associates:
-            np.copyto(self._n_before, filters.n)
-        filters.predict(stepping)
-        self.failed |= stepping & (filters.error != 0)
-        np.logical_and(touched, filters.counts > 0, out=self.updated)
-        filters.update(self.updated)
-        failed = self.updated & (filters.error != 0)
-        self.failed |= failed
-        if self.associates:  # (a failed update has no statuses: it scores nothing)
-            score_association(
-                filters.assigned, filters.status, raw.det_ids, filters.counts, self._n_before,
-                self.slot_truth, touched, self.score_step, self.score_episode,
-            )  # fmt: skip
-        # A failed update changed nothing: it counts no rejection either.
-        count_rejections(filters.status, filters.counts, self.updated & ~failed, self.in_a_row)
-        self._observe(touched)
-        active_slam_reward(
-            self._weights,
-            self.entropy,
-            self.diagnostics[_DIAGNOSTIC_ROW["pose_std"]],
-            raw.collided,
-            self.swept_fraction,
-            self.last,
-            self.terms,
-            self.rewards,
+        filtering = (
+            (out.odometry, out.detections, out.ids, raw.det_count, raw.det_ids),
+            not self.associates,
+            touched,
             stepping,
+            filters.storage,
+            filters.config,
+            filters.u,
+            filters.correction_io,
         )
-        for b in resetting:
-            self.last[b] = (self.entropy[b], self.swept_fraction[b])
-            self.terms[b] = 0.0
-            self.rewards[b] = 0.0
+        bookkeeping = (self.updated, self.failed, self._counted, self.in_a_row)
+        scores = (self.slot_truth, self._n_before, self.score_step, self.score_episode)
+        if not filter_step(*filtering, filters.workspaces, self.associates, bookkeeping, scores):
+            filters.grow_for(self.updated)
+            filter_step(*filtering, filters.workspaces, self.associates, bookkeeping, scores)
+        self._observe(touched, stepping)
         return layouts
 
     @property
     def terminated(self) -> np.ndarray:
         return self.raw.terminated
 
-    def _observe(self, active: np.ndarray) -> None:
-        """Diagnostics, entropy, coverage, observation and ``diverged`` of the active
-        worlds."""
+    @property
+    def _passthrough_readings(self) -> tuple[np.ndarray, np.ndarray]:
+        """The raw proximity readings the observation passes on, in
+        :data:`PASSTHROUGH_KEYS` order (scan, bumper), (B, 0) for a sensor the env
+        lacks."""
+        raw, keys, none = self.raw, self._passthrough, self._no_readings
+        return (
+            raw.scan if "scan" in keys else none,
+            raw.out.bumper if "bumper" in keys else none,
+        )
+
+    def _observe(self, touched: np.ndarray, stepping: np.ndarray) -> None:
+        """Diagnostics, entropy, coverage, observation, reward and ``diverged`` of the
+        ``touched`` worlds (the reward paid to the ``stepping`` ones)."""
         filters, raw = self.filters, self.raw
         belief = (filters.x, filters.P, filters.n, filters.slot_to_id)
         # The map error pairs each filter landmark with its true one: the IDs are the
         # truth's, unless the filter made its own.
         truth_of_slots = self.slot_truth if self.associates else filters.slot_to_id
-        belief_diagnostics(
-            filters.x, filters.P, filters.n, truth_of_slots, raw.worlds.poses, self.truth,
-            self.diagnostics, active,
-        )  # fmt: skip
-        self._entropy_of.batch(filters.P, filters.n, self.entropy, self._entropy_ok, active)
-        tail, at = self._tail, 0
-        for key in self._passthrough:
-            values = raw.scan if key == "scan" else raw.out.bumper
-            tail[:, at : at + values.shape[1]] = values
-            at += values.shape[1]
-        if self.coverage is not None:
-            tail[:, at:] = self.coverage.step_all(filters.x, active)  # rounded to float32
-            self.swept_fraction[:] = self.coverage.swept_fractions()
+        reward = (self._weights, raw.collided, self.last, self.terms, self.rewards)
+        left = belief_outputs(
+            belief,
+            (truth_of_slots, raw.worlds.poses, self.truth),
+            self.diagnostics,
+            self._entropy_of.kernel_args,
+            self.entropy,
+            self._entropy_ok,
+            self._passthrough_readings,
+            None if self.coverage is None else self.coverage.kernel_args,
+            self._tail,
+            self.swept_fraction,
+            reward,
+            touched,
+            stepping,
+        )
+        if left:  # the rare entropy that round-off left to the eigenvalues
+            self._entropy_of.finish(filters.P, filters.n, self.entropy, self._entropy_ok, touched)
+            step_reward(
+                reward, self.entropy, self.diagnostics, self.swept_fraction, touched, stepping
+            )
         if self.egocentric is not None:
-            self._encoding.encode_batch(belief, tail, self.egocentric, self.clipped, active)
+            self._encoding.encode_batch(belief, self._tail, self.egocentric, self.clipped, touched)
         elif self._local is not None:
-            self._encoding.encode_batch(belief, raw.scan, self._local, self.clipped, active)
+            self._encoding.encode_batch(belief, raw.scan, self._local, self.clipped, touched)
         else:
-            self._encoding.encode_batch(belief, self._full, active)
+            self._encoding.encode_batch(belief, self._full, touched)
             np.copyto(self.clipped, self._full.clipped)
         diverged(self.clipped, self.failed, self.in_a_row, DIVERGENCE_REJECTIONS, self.diverged)
 
@@ -295,19 +303,19 @@ class ActiveCore(BatchCore):
         """Sub-env ``index``'s info, fresh objects (see :class:`ActiveSLAMEnv`)."""
         info = self.raw.info(index)
         info["raw_reward_terms"] = info.pop("reward_terms")
-        diag = dict(zip(DIAGNOSTICS, self.diagnostics[:, index].tolist(), strict=True))
-        info["pose_error"] = diag["pose_error"]
-        info["heading_error"] = diag["heading_error"]
+        diag = self.diagnostics[:, index].tolist()
+        info["pose_error"] = diag[POSE_ERROR]
+        info["heading_error"] = diag[HEADING_ERROR]
         # Undefined metrics are absent, never NaN: the map error before the first
         # landmark, the NEES of a covariance gone non-finite.
-        if not math.isnan(diag["map_rmse"]):
-            info["map_rmse"] = diag["map_rmse"]
-        if not math.isnan(diag["pose_nees"]):
-            info["pose_nees"] = diag["pose_nees"]
+        if not math.isnan(diag[MAP_RMSE]):
+            info["map_rmse"] = diag[MAP_RMSE]
+        if not math.isnan(diag[POSE_NEES]):
+            info["pose_nees"] = diag[POSE_NEES]
         info["landmarks_known"] = int(self.filters.n[index])
         info["rejected"] = int(self.filters.n_rejected[index])
         info["entropy"] = float(self.entropy[index])
-        info["pose_std"] = diag["pose_std"]
+        info["pose_std"] = diag[POSE_STD]
         info["belief_clipped"] = bool(self.clipped[index])
         info["consecutive_rejections"] = int(self.in_a_row[index])
         info["diverged"] = bool(self.diverged[index])

@@ -64,11 +64,23 @@ class BeliefEntropy:
             active,
         )  # fmt: skip
         if not ok[active].all():
-            for b in np.flatnonzero(active & ~ok).tolist():
-                d = 3 + 2 * int(n[b])
-                shifted = P[b, :d, :d] + ENTROPY_FLOOR * np.eye(d)
-                live = metrics.log_det_psd(shifted, copy=False)
-                out[b] = slots_entropy(live, int(n[b]), self.max_landmarks, self.prior_log_det)
+            self.finish(P, n, out, ok, active)
+
+    @property
+    def kernel_args(self) -> tuple[int, float, float, np.ndarray]:
+        """``(slots, floor, prior_log_det, scratch)``, the entropy kernel's settings."""
+        return (self.max_landmarks, ENTROPY_FLOOR, self.prior_log_det, self._scratch)
+
+    def finish(
+        self, P: np.ndarray, n: np.ndarray, out: np.ndarray, ok: np.ndarray, active: np.ndarray
+    ) -> None:
+        """``out[b]`` for the worlds of ``active`` that the kernel left (``ok[b]``
+        False: Σ + floor·I not positive definite to round-off), from the eigenvalues."""
+        for b in np.flatnonzero(active & ~ok).tolist():
+            d = 3 + 2 * int(n[b])
+            shifted = P[b, :d, :d] + ENTROPY_FLOOR * np.eye(d)
+            live = metrics.log_det_psd(shifted, copy=False)
+            out[b] = slots_entropy(live, int(n[b]), self.max_landmarks, self.prior_log_det)
 
     def __call__(self, cov: np.ndarray) -> float:
         """The entropy of one belief with covariance ``cov`` ((3 + 2n)², not modified)."""

@@ -256,6 +256,13 @@ class CoverageGrid:
         swept."""
         return self._step(poses, True, active)
 
+    @property
+    def kernel_args(self) -> tuple[Any, ...]:
+        """The :class:`CoverageTables` fields, then ``(swept, n_swept, new_cells,
+        features)``: the grid as :func:`slam_env.kernels.active_step.belief_outputs`
+        takes it (``features`` what :meth:`step_all` returns)."""
+        return (*self.tables, self._flat, self._n_swept, self.new_cells, self._out)
+
     def _step(self, poses: np.ndarray, sweep: bool, active: np.ndarray | None = None) -> np.ndarray:
         active = self._all if active is None else active
         coverage_step(

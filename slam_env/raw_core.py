@@ -20,16 +20,11 @@ from slam_env.kernels.faults import (
     KIDNAP_UNIFORM,
     FaultParams,
     corrupt_odometry,
-    corrupt_scans,
 )
-from slam_env.kernels.observe import RawOutputs, RawParams, observe_raw
+from slam_env.kernels.observe import RawOutputs, RawParams
 from slam_env.kernels.odometry import odometry_uniforms, read_odometry
-from slam_env.kernels.sensing import (
-    SensorParams,
-    proximity_scan,
-    scan_uniforms,
-    sense_landmarks,
-)
+from slam_env.kernels.raw_step import sense_and_observe
+from slam_env.kernels.sensing import SensorParams, scan_uniforms
 from slam_env.layouts import Layout
 from slam_env.random_blocks import RandomBlocks
 from slam_env.world_batch import WorldBatch
@@ -159,6 +154,7 @@ class RawCore(BatchCore):
         )
         beams = sensor.scan_beams
         self._beam_angles = -math.pi + 2.0 * math.pi * (np.arange(beams) + 0.5) / beams
+        self._scan_reach = float(sensor.scan_range)
         faults = config.faults
         self.faults_on = faults.any
         self._faults = FaultParams(
@@ -264,8 +260,7 @@ class RawCore(BatchCore):
                 self.control,
             )
             self._kidnap(uniforms, stepping)
-        self._sense(uniforms, touched, stepping)
-        self._observe(touched)
+        self._sense_and_observe(uniforms, touched, stepping)
         out = self.out
         if self.config.terminate_when_all_detected:
             np.logical_and(out.all_seen, stepping, out=self.terminated)
@@ -284,53 +279,26 @@ class RawCore(BatchCore):
             for b in np.flatnonzero(events).tolist():
                 self.kidnapped[b] = self.worlds.kidnap(b, self.rngs[b])
 
-    def _sense(self, uniforms: np.ndarray, active: np.ndarray, faulty: np.ndarray) -> None:
-        """The scans of ``active``; the faults, if any, on those of ``faulty``."""
+    def _sense_and_observe(
+        self, uniforms: np.ndarray, touched: np.ndarray, stepping: np.ndarray
+    ) -> None:
+        """The scans and observations of the ``touched`` worlds; the faults, if any, on
+        the scans of the ``stepping`` ones."""
         worlds = self.worlds
-        sense_landmarks(
-            worlds.poses,
-            worlds.landmarks,
-            worlds.landmark_ids,
-            worlds.id_order,
+        sense_and_observe(
+            (worlds.poses, worlds.landmarks, worlds.landmark_ids, worlds.id_order),
             tuple(worlds.geometry),
             self._sensor_fields,
             uniforms,
             self._scan_offset,
-            active,
-            self.det_z,
-            self.det_ids,
-            self.det_rows,
-            self.det_count,
-        )
-        if self.faults_on:
-            corrupt_scans(
-                self._fault_fields,
-                self.seen,
-                uniforms,
-                self._fault_offset,
-                faulty,
-                self.det_z,
-                self.det_ids,
-                self.det_rows,
-                self.det_count,
-            )
-        if self._beam_angles.size:
-            reach = float(self.config.sensor.scan_range)
-            proximity_scan(
-                worlds.poses, tuple(worlds.geometry), self._beam_angles, reach, active, self.scan
-            )
-
-    def _observe(self, active: np.ndarray) -> None:
-        observe_raw(
-            self.control,
-            self.det_z,
-            self.det_ids,
-            self.det_count,
-            self.collided,
-            self.worlds.landmark_ids,
-            self._params_fields,
-            active,
+            touched,
+            (self.det_z, self.det_ids, self.det_rows, self.det_count),
+            (self._fault_fields, self._fault_offset) if self.faults_on else None,
+            stepping,
+            (self._beam_angles, self._scan_reach, self.scan),
+            (self.control, self.collided),
             self.seen,
+            self._params_fields,
             self._out_fields,
         )
 

@@ -4,6 +4,7 @@ CoverageWrapper → ActiveSLAMReward, with the same options."""
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import gymnasium as gym
@@ -63,3 +64,64 @@ def test_the_core_is_the_wrapper_stack_bit_for_bit(belief, world) -> None:
             action = np.array([rng.uniform(-0.3, 1.0), rng.uniform(-1, 1)], np.float32)
             assert_same(list(core.step(action)), list(stack.step(action)), f"step {episode}.{t}")
     assert core.unwrapped.filter.n_landmarks > 0
+
+
+@pytest.mark.parametrize("association", ["known", "jcbb"])
+def test_the_step_filters_as_the_standalone_filter_fed_the_same_readings(association) -> None:
+    """30 landmarks all around: the first scan has more detections than the step's
+    first workspaces hold, so they grow and the step is made again; each filter equals
+    an EKFSLAM fed the raw readings the step read, mean and covariance bit for bit."""
+    options: dict[str, Any] = {"n_landmarks": 30, "max_range": 8.0, "fov": 6.28}
+    if association != "known":
+        options |= {"data_association": association, "report_ids": False}
+    env = gym.make("slam_env/ActiveSLAM-v0", max_episode_steps=None, **options)
+    env.reset(seed=3)
+    core = env.unwrapped._core
+    out, counts = core.raw.out, core.raw.det_count
+    reference = core.filters.template.copy()
+    reference.reset(initial_pose=core.raw.worlds.poses[0].copy())
+
+    def fold_in_the_scan() -> None:
+        k = int(counts[0])
+        z = out.detections[0, : 2 * k].astype(np.float64).reshape(k, 2)
+        ids = out.ids[0, :k].astype(np.int64)
+        if association == "known":
+            reference.update(z[ids >= 0], ids[ids >= 0])
+        else:
+            reference.update(z, None)
+
+    fold_in_the_scan()
+    assert counts[0] > 8  # past the first workspaces
+    rng = np.random.default_rng(1)
+    for t in range(60):
+        env.step(np.array([rng.uniform(0.0, 1.0), rng.uniform(-1, 1)], np.float32))
+        reference.predict(out.odometry[0].astype(np.float64))
+        fold_in_the_scan()
+        d = reference.dim
+        assert np.array_equal(core.filters.x[0, :d], reference.mean), t
+        assert np.array_equal(core.filters.P[0, :d, :d], reference.cov), t
+    assert reference.n_landmarks > 8
+
+
+def test_an_entropy_left_to_the_eigenvalues_is_paid_once_known() -> None:
+    """A covariance that round-off left not positive definite to the entropy kernel's
+    Cholesky factor: its entropy comes from the eigenvalues, and the step's reward is
+    paid on that entropy."""
+    env = gym.make("slam_env/ActiveSLAM-v0")
+    env.reset(seed=0)
+    for _ in range(5):
+        env.step(np.array([0.5, 0.1], np.float32))
+    core = env.unwrapped._core
+    filters = core.filters
+    d = 3 + 2 * int(filters.n[0])
+    filters.P[0, 2, 2] = -1.0  # a negative heading variance: no Cholesky factor
+    baseline = core.last[0, 0]
+    everyone = np.ones(1, dtype=bool)
+    core._observe(everyone, everyone)
+    assert not core._entropy_ok[0]
+    expected = core._entropy_of(filters.P[0, :d, :d])
+    assert math.isfinite(expected)
+    assert core.entropy[0] == expected
+    weight = ActiveSLAMRewardWeights().information_gain
+    assert core.terms[0, 0] == weight * (baseline - expected)
+    assert core.rewards[0] == sum(core.terms[0].tolist())

@@ -10,6 +10,7 @@ import numpy as np
 from slam_env.ekf.chi2 import joint_gates
 from slam_env.ekf.filter import EKFSLAM
 from slam_env.kernels import association, ekf
+from slam_env.kernels.correction import correct
 
 
 class FilterBatch:
@@ -53,13 +54,16 @@ class FilterBatch:
         self.nis = np.zeros((b, d))
         self.error = np.zeros(b, dtype=np.int64)
         # Where the filters associate: the landmark each observation is given to (the
-        # IDs the update uses), each one's smallest D², the association's gates.
+        # IDs the update uses), each one's smallest D², the association's gates and
+        # the tentative sightings held until the update succeeds (placeholders, never
+        # read, where they do not).
         self.associates = template.associates
         self.assigned = np.full((b, d), -1, dtype=np.int64)
         self.nearest = np.full((b, d), np.inf)
-        if self.associates:
-            self._joint_gates = joint_gates(template.association_gates[0], d)
-            self._held = np.empty_like(self.tentative)
+        self._joint_gates = (
+            joint_gates(template.association_gates[0], d) if self.associates else np.zeros(1)
+        )
+        self._held = np.empty_like(self.tentative)
         # The workspaces grow with the most observations an update has had (a step
         # sees far fewer landmarks than the padded array has rows): a kernel that finds
         # its workspace too small refuses the call, changing nothing, and is called
@@ -72,11 +76,20 @@ class FilterBatch:
         if max_obs <= self._room:
             return
         self._room = max_obs
-        self._work = np.empty(ekf.update_workspace_size(self.x.shape[1], max_obs))
-        if self.associates:
-            sizes = association.association_workspace_sizes(self.template.max_landmarks, max_obs)
-            floats, ints = sizes
-            self._assoc_work = (np.empty(floats), np.empty(ints, dtype=np.int64))
+        floats, ints = (
+            association.association_workspace_sizes(self.template.max_landmarks, max_obs)
+            if self.associates
+            else (0, 0)
+        )
+        self.workspaces = (
+            np.empty(ekf.update_workspace_size(self.x.shape[1], max_obs)),
+            np.empty(floats),
+            np.empty(ints, dtype=np.int64),
+        )
+
+    def grow_for(self, mask: np.ndarray) -> None:
+        """Grow the workspaces for the observations of the worlds of ``mask``."""
+        self._grow_workspaces(min(int(self.counts[mask].max(initial=0)), self.z.shape[1]))
 
     @property
     def storage(self) -> tuple[np.ndarray, ...]:
@@ -106,35 +119,30 @@ class FilterBatch:
             self.x, self.P, self.n, self.first, self.u, self.params, self.modes, mask, self.error
         )  # fmt: skip
 
+    @property
+    def config(self) -> tuple[np.ndarray, ...]:
+        """``(params, modes, joint_gates)``, as :func:`slam_env.kernels.correction.correct`
+        takes them."""
+        return (self.params, self.modes, self._joint_gates)
+
+    @property
+    def correction_io(self) -> tuple[np.ndarray, ...]:
+        """The inputs and outputs of a correction, in
+        :func:`slam_env.kernels.correction.correct`'s order."""
+        return (
+            self.z, self.ids, self.counts, self.assigned, self.nearest, self._held,
+            self.status, self.nis, self.error,
+        )  # fmt: skip
+
     def update(self, mask: np.ndarray) -> None:
         """Update the filters of ``mask`` with their first :attr:`counts` observations
         :attr:`z` of landmarks :attr:`ids` (where the filters associate, of the
         landmarks they choose: :attr:`assigned`, each one's smallest D² in
         :attr:`nearest`); per observation :attr:`status` and :attr:`nis`."""
-        ids = self.ids
-        if self.associates:
-            if not self._associate(mask):
-                self._grow_workspaces(min(int(self.counts.max()), self.z.shape[1]))
-                self._associate(mask)
-            ids = self.assigned
-        update = (
-            self.x, self.P, self.n, self.id_to_slot, self.slot_to_id, self.n_rejected,
-            self.first, self.params, self.modes, self.z, ids, self.counts, mask,
-            self.status, self.nis, self.error,
-        )  # fmt: skip
-        if not ekf.update(*update, self._work):
-            self._grow_workspaces(min(int(self.counts.max()), self.z.shape[1]))
-            ekf.update(*update, self._work)
-        if self.associates:  # the tentative sightings of the updates that succeeded
-            kept = mask & (self.error == 0)
-            self.tentative[kept] = self._held[kept]
-
-    def _associate(self, mask: np.ndarray) -> bool:
-        return association.associate(
-            self.x, self.P, self.n, self.params, self.modes, self._joint_gates, self.z,
-            self.counts, mask, self.assigned, self.nearest, self.tentative, self._held,
-            *self._assoc_work,
-        )  # fmt: skip
+        args = (self.storage, self.config, self.correction_io, mask)
+        if not correct(*args, self.workspaces, self.associates):
+            self.grow_for(mask)
+            correct(*args, self.workspaces, self.associates)
 
     # Pickling: the views are rebuilt on demand over the unpickled arrays.
     def __getstate__(self) -> dict[str, Any]:

@@ -41,6 +41,11 @@ from slam_env.kernels.shape_queries import query_box_entry, shape_alpha
 
 __all__ = ["line_of_sight", "lines_of_sight", "range_scan", "ray_fraction", "ray_fractions"]
 
+# How much farther than a query's reach a box may lie and still be tried, relative to
+# the coordinates' size: far above the rounding of a segment's end point, far below
+# any distance that matters.
+NEAR_MARGIN = 1e-9
+
 
 @inline_kernel
 def _node_entry(
@@ -51,6 +56,24 @@ def _node_entry(
     return query_box_entry(
         boxes[b, node, 0], boxes[b, node, 1], boxes[b, node, 2], boxes[b, node, 3], ax, ay, bx, by
     )
+
+
+@inline_kernel
+def _blocks(
+    g: StaticGeometry, b: int, node: int, ax: float, ay: float, bx: float, by: float
+) -> bool:
+    """Whether the shape of leaf ``node`` blocks the segment a → b (before alpha 1)."""
+    if _node_entry(g.tree_boxes, b, node, ax, ay, bx, by) < 1.0:
+        return shape_alpha(g, b, g.tree[b, node, 2], ax, ay, bx, by) < 1.0
+    return False
+
+
+@inline_kernel
+def _skipped_shape(g: StaticGeometry, b: int, skip_circle: int) -> int:
+    """The shape number of circle ``skip_circle`` of world ``b`` (−1 for none)."""
+    if skip_circle < 0:
+        return -1
+    return g.counts[b, N_SEGMENTS] + g.counts[b, N_POLYGONS] + skip_circle
 
 
 @inline_kernel
@@ -68,18 +91,82 @@ def line_of_sight(
     ``segment_query_first(a, b, 0.0, filter) is None`` for a filter that passes every
     static shape but that post."""
     g = geometry
-    n_segments, n_polygons = g.counts[b, N_SEGMENTS], g.counts[b, N_POLYGONS]
-    n = n_segments + n_polygons + g.counts[b, N_CIRCLES]
-    skip_shape = -1 if skip_circle < 0 else n_segments + n_polygons + skip_circle
+    n = g.counts[b, N_SEGMENTS] + g.counts[b, N_POLYGONS] + g.counts[b, N_CIRCLES]
+    skip_shape = _skipped_shape(g, b, skip_circle)
     for node in range(2 * n - 1):  # the leaves, one per shape
         shape = g.tree[b, node, 2]
-        if shape < 0 or shape == skip_shape:
-            continue
-        if _node_entry(g.tree_boxes, b, node, ax, ay, bx, by) < 1.0:
-            alpha = shape_alpha(g, b, shape, ax, ay, bx, by)
-            if alpha < 1.0:
-                return False
+        if shape >= 0 and shape != skip_shape and _blocks(g, b, node, ax, ay, bx, by):
+            return False
     return True
+
+
+@inline_kernel
+def line_of_sight_among(
+    geometry: StaticGeometry,
+    b: int,
+    leaves: np.ndarray,
+    count: int,
+    ax: float,
+    ay: float,
+    bx: float,
+    by: float,
+    skip_circle: int,
+) -> bool:
+    """:func:`line_of_sight` trying only the first ``count`` ``leaves`` (from
+    :func:`near_leaves` for a segment that starts at a and is no longer than its
+    reach: the same answer)."""
+    skip_shape = _skipped_shape(geometry, b, skip_circle)
+    for i in range(count):
+        node = leaves[i]
+        if geometry.tree[b, node, 2] != skip_shape and _blocks(geometry, b, node, ax, ay, bx, by):
+            return False
+    return True
+
+
+@inline_kernel
+def _try_leaf(
+    g: StaticGeometry,
+    b: int,
+    node: int,
+    ax: float,
+    ay: float,
+    bx: float,
+    by: float,
+    best: float,
+    best_entry: float,
+    runner_up: float,
+) -> tuple[float, float, float]:
+    """One leaf of :func:`ray_fraction`'s loop: (the smallest alpha so far, where the
+    query enters that shape's box, the smallest alpha of the other shapes)."""
+    entry = _node_entry(g.tree_boxes, b, node, ax, ay, bx, by)
+    if entry < 1.0:
+        alpha = shape_alpha(g, b, g.tree[b, node, 2], ax, ay, bx, by)
+        if alpha < best:
+            return alpha, entry, best
+        if alpha < runner_up:
+            return best, best_entry, alpha
+    return best, best_entry, runner_up
+
+
+@inline_kernel
+def _settle(
+    g: StaticGeometry,
+    b: int,
+    ax: float,
+    ay: float,
+    bx: float,
+    by: float,
+    best: float,
+    best_entry: float,
+    runner_up: float,
+) -> float:
+    """The answer of :func:`ray_fraction` once every leaf the query enters is tried."""
+    # Until the best shape is tried, the bound is 1 or another shape's alpha, so at
+    # least runner_up; every box on the way to it is entered at best_entry or before.
+    # Below runner_up, nothing can prune it.
+    if best == 1.0 or best_entry < runner_up:
+        return best
+    return _tree_fraction(g, b, ax, ay, bx, by)
 
 
 @inline_kernel
@@ -91,28 +178,60 @@ def ray_fraction(
     None) for a filter that passes every static shape."""
     g = geometry
     n = g.counts[b, N_SEGMENTS] + g.counts[b, N_POLYGONS] + g.counts[b, N_CIRCLES]
-    best = 1.0  # the smallest alpha,
-    best_entry = math.inf  # where the query enters that shape's box,
-    runner_up = 1.0  # and the smallest alpha of the other shapes
+    best, best_entry, runner_up = 1.0, math.inf, 1.0
     for node in range(2 * n - 1):
-        shape = g.tree[b, node, 2]
-        if shape < 0:
+        if g.tree[b, node, 2] >= 0:
+            best, best_entry, runner_up = _try_leaf(
+                g, b, node, ax, ay, bx, by, best, best_entry, runner_up
+            )
+    return _settle(g, b, ax, ay, bx, by, best, best_entry, runner_up)
+
+
+@inline_kernel
+def near_leaves(
+    geometry: StaticGeometry, b: int, x: float, y: float, reach: float, out: np.ndarray
+) -> int:
+    """The leaves of world ``b``'s tree whose box a segment from (x, y) no longer than
+    ``reach`` can enter, in node order, into ``out`` (at least the tree's rows); returns
+    how many. A box farther than ``reach`` (by a margin far above rounding) is left
+    out: a query that lies wholly outside a box never tries its shape."""
+    g = geometry
+    n = g.counts[b, N_SEGMENTS] + g.counts[b, N_POLYGONS] + g.counts[b, N_CIRCLES]
+    limit = reach + NEAR_MARGIN * (reach + abs(x) + abs(y) + 1.0)
+    limit_sq = limit * limit
+    count = 0
+    for node in range(2 * n - 1):
+        if g.tree[b, node, 2] < 0:
             continue
-        entry = _node_entry(g.tree_boxes, b, node, ax, ay, bx, by)
-        if entry < 1.0:
-            alpha = shape_alpha(g, b, shape, ax, ay, bx, by)
-            if alpha < best:
-                runner_up = best
-                best = alpha
-                best_entry = entry
-            elif alpha < runner_up:
-                runner_up = alpha
-    # Until the best shape is tried, the bound is 1 or another shape's alpha, so at
-    # least runner_up; every box on the way to it is entered at best_entry or before.
-    # Below runner_up, nothing can prune it.
-    if best == 1.0 or best_entry < runner_up:
-        return best
-    return _tree_fraction(g, b, ax, ay, bx, by)
+        boxes = g.tree_boxes
+        dx = max(boxes[b, node, 0] - x, x - boxes[b, node, 2], 0.0)
+        dy = max(boxes[b, node, 1] - y, y - boxes[b, node, 3], 0.0)
+        if dx * dx + dy * dy <= limit_sq:
+            out[count] = node
+            count += 1
+    return count
+
+
+@inline_kernel
+def ray_fraction_among(
+    geometry: StaticGeometry,
+    b: int,
+    leaves: np.ndarray,
+    count: int,
+    ax: float,
+    ay: float,
+    bx: float,
+    by: float,
+) -> float:
+    """:func:`ray_fraction` trying only the first ``count`` ``leaves`` (from
+    :func:`near_leaves` for a segment that starts at a and is no longer than its
+    reach: the same answer)."""
+    best, best_entry, runner_up = 1.0, math.inf, 1.0
+    for i in range(count):
+        best, best_entry, runner_up = _try_leaf(
+            geometry, b, leaves[i], ax, ay, bx, by, best, best_entry, runner_up
+        )
+    return _settle(geometry, b, ax, ay, bx, by, best, best_entry, runner_up)
 
 
 # Tree levels whose child still to search is kept in the bits of an int64; deeper ones
@@ -233,13 +352,21 @@ def ray_fractions(
 
 @inline_kernel
 def beam_fraction(
-    geometry: StaticGeometry, b: int, x: float, y: float, heading: float, reach: float
+    geometry: StaticGeometry,
+    b: int,
+    leaves: np.ndarray,
+    count: int,
+    x: float,
+    y: float,
+    heading: float,
+    reach: float,
 ) -> float:
     """The :func:`ray_fraction` of the beam of length ``reach`` from (x, y) along
-    ``heading`` (rad, world frame): its free share, in [0, 1]."""
+    ``heading`` (rad, world frame), its free share in [0, 1], trying the first
+    ``count`` ``leaves`` (:func:`near_leaves` of (x, y) for this reach)."""
     ex = x + reach * math.cos(heading)
     ey = y + reach * math.sin(heading)
-    return ray_fraction(geometry, b, x, y, ex, ey)
+    return ray_fraction_among(geometry, b, leaves, count, x, y, ex, ey)
 
 
 @kernel
@@ -257,5 +384,8 @@ def range_scan(
     free distance along the beam at ``angles[k]`` (rad, robot frame), at most
     ``max_range``: the :func:`ray_fraction` of the beam from (x, y) to
     (x + max_range·cos(θ + a), y + max_range·sin(θ + a)), times ``max_range``."""
+    leaves = np.empty(geometry.tree.shape[1], dtype=np.int64)
+    count = near_leaves(geometry, b, x, y, max_range, leaves)
     for k in range(angles.shape[0]):
-        out[k] = beam_fraction(geometry, b, x, y, theta + angles[k], max_range) * max_range
+        fraction = beam_fraction(geometry, b, leaves, count, x, y, theta + angles[k], max_range)
+        out[k] = fraction * max_range

@@ -30,7 +30,7 @@ from slam_env.kernels.angles import wrap
 from slam_env.kernels.geometry import StaticGeometry
 from slam_env.kernels.models import CARTESIAN, RANGE_BEARING, observe, range_bearing_observe
 from slam_env.kernels.random import normal_pair
-from slam_env.kernels.raycast import beam_fraction, line_of_sight
+from slam_env.kernels.raycast import beam_fraction, line_of_sight_among, near_leaves
 
 
 class SensorParams(NamedTuple):
@@ -179,16 +179,21 @@ def sense_landmarks(
     n_rows = landmarks.shape[1]
     rows = np.empty(n_rows, dtype=np.int64)
     found = np.empty((n_rows, 3))
+    leaves = np.empty(geometry.tree.shape[1], dtype=np.int64)
+    near = 0
     for b in range(poses.shape[0]):
         if not active[b]:
             continue
         x, y, theta = poses[b, 0], poses[b, 1], poses[b, 2]
         u = uniforms[b, offset:]
         k = in_view(x, y, theta, landmarks[b], id_order[b], params, u, rows, found)
+        if k:  # the shapes a sight line within the range can meet, once per world
+            near = near_leaves(geometry, b, x, y, params.max_range, leaves)
         visible = 0
         for j in range(k):
             i = rows[j]
-            if line_of_sight(geometry, b, x, y, landmarks[b, i, 0], landmarks[b, i, 1], i):
+            tx, ty = landmarks[b, i, 0], landmarks[b, i, 1]
+            if line_of_sight_among(geometry, b, leaves, near, x, y, tx, ty, i):
                 _keep(rows, found, j, visible)
                 visible += 1
         out_count[b] = emit_detections(
@@ -218,9 +223,13 @@ def proximity_scan(
     stopped by the first wall, obstacle or post (``geometry_fields``: the fields of the
     :class:`StaticGeometry`, a plain tuple)."""
     geometry = StaticGeometry(*geometry_fields)
+    leaves = np.empty(geometry.tree.shape[1], dtype=np.int64)
     for b in range(poses.shape[0]):
         if not active[b]:
             continue
         x, y, theta = poses[b, 0], poses[b, 1], poses[b, 2]
+        count = near_leaves(geometry, b, x, y, reach, leaves)  # once for all beams
         for k in range(beam_angles.shape[0]):
-            out[b, k] = beam_fraction(geometry, b, x, y, theta + beam_angles[k], reach)
+            out[b, k] = beam_fraction(
+                geometry, b, leaves, count, x, y, theta + beam_angles[k], reach
+            )

@@ -15,9 +15,11 @@ from slam_env.config import RobotConfig
 from slam_env.kernels import kernel
 from slam_env.kernels.geometry import StaticGeometry, empty_geometry, set_world, static_shapes
 from slam_env.kernels.raycast import (
+    _node_entry,
     _tree_fraction,
     line_of_sight,
     lines_of_sight,
+    near_leaves,
     range_scan,
     ray_fraction,
     ray_fractions,
@@ -391,6 +393,42 @@ def test_range_scan_is_the_ray_fraction_of_each_beam() -> None:
         for k, a in enumerate(angles.tolist()):
             end = (x + reach * math.cos(theta + a), y + reach * math.sin(theta + a))
             assert out[k] == pymunk_alpha(space, (x, y, *end)) * reach
+
+
+@kernel
+def _near(g: StaticGeometry, x: float, y: float, reach: float, out: np.ndarray) -> int:
+    return near_leaves(g, 0, x, y, reach, out)
+
+
+@kernel
+def _entry(g: StaticGeometry, node: int, ax: float, ay: float, bx: float, by: float) -> float:
+    return _node_entry(g.tree_boxes, 0, node, ax, ay, bx, by)
+
+
+@pytest.mark.parametrize("index", range(len(LAYOUTS)), ids=IDS)
+def test_the_near_leaves_hold_every_box_a_beam_can_enter(index: int) -> None:
+    """What the scan tries of a world: every leaf whose box some segment from the
+    origin, no longer than the reach, enters (beams of exactly the reach, rounded as
+    the scan rounds them, included), and fewer leaves than the world has where the
+    reach is short."""
+    layout = LAYOUTS[index]
+    g = set_world(empty_geometry(1), 0, layout, WALL)
+    leaves = np.flatnonzero(g.tree[0, :, 2] >= 0)
+    out = np.empty(g.tree.shape[1], dtype=np.int64)
+    rng = np.random.default_rng(300 + index)
+    pruned = 0
+    for _ in range(150):
+        x, y = rng.uniform((-0.5, -0.5), (layout.width + 0.5, layout.height + 0.5)).tolist()
+        reach = float(rng.uniform(0.1, 6.0))
+        near = set(out[: _near(g, x, y, reach, out)].tolist())
+        assert near <= set(leaves.tolist())
+        pruned += len(near) < len(leaves)
+        for heading in rng.uniform(-math.pi, math.pi, 24).tolist():
+            length = reach if rng.random() < 0.5 else float(rng.uniform(0.0, reach))
+            end = (x + length * math.cos(heading), y + length * math.sin(heading))
+            entered = {int(n) for n in leaves if _entry(g, int(n), x, y, *end) < 1.0}
+            assert entered <= near, (x, y, reach, heading)
+    assert pruned > 50
 
 
 @kernel
