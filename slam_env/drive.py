@@ -39,19 +39,24 @@ class Drive:
         clear disks ``disks`` ((B, 3)); ``blocked[b]`` ((B,) bool) becomes False for each.
         Returns the flagged robots, whose positions the caller settles. ``ValueError``,
         with nothing moved, if a speed would take more than :attr:`max_moves` moves."""
-        args = (self.radius, self.dt, self.substeps)
-        needed = drive(poses, disks, self.commands, active, *args, *self._outputs(), blocked)
-        if needed:
+        commands, radius, dt, substeps = self.commands, self.radius, self.dt, self.substeps
+        counts, reaches = self.counts, self.reaches
+        flagged = drive(
+            poses, disks, commands, active, radius, dt, substeps, self.moves, counts, reaches,
+            blocked,
+        )  # fmt: skip
+        if flagged < 0:  # more moves than the buffer holds: nothing moved yet
+            needed = -flagged
             if needed > self.max_moves:
-                speeds = np.abs(self.commands[np.asarray(active, dtype=bool), 0])
+                speeds = np.abs(commands[np.asarray(active, dtype=bool), 0])
                 raise ValueError(
-                    f"speed {speeds.max():g} m/s is too fast for a {self.dt:g} s step: it "
-                    f"needs more than {self.max_moves} moves of at most half the robot's "
-                    f"radius ({self.radius:g} m); see slam_env.budget.MAX_MOVES_PER_STEP"
+                    f"speed {speeds.max():g} m/s is too fast for a {dt:g} s step: it needs "
+                    f"more than {self.max_moves} moves of at most half the robot's radius "
+                    f"({radius:g} m); see slam_env.budget.MAX_MOVES_PER_STEP"
                 )
             self.moves = np.zeros((self.moves.shape[0], needed, 2))
-            drive(poses, disks, self.commands, active, *args, *self._outputs(), blocked)
-        return np.flatnonzero(self.counts).tolist()
-
-    def _outputs(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        return self.moves, self.counts, self.reaches
+            flagged = drive(
+                poses, disks, commands, active, radius, dt, substeps, self.moves, counts,
+                reaches, blocked,
+            )  # fmt: skip
+        return np.flatnonzero(counts).tolist() if flagged else []

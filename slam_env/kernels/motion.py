@@ -84,9 +84,10 @@ def drive(
     translation) but keeps its position, for the caller to move along ``moves[b, :n]``
     with clearance queries.
 
-    Returns 0; or, when some active robot needs more than M moves, the most moves one
-    needs (at most :data:`TOO_MANY_MOVES`), having changed nothing: the caller grows
-    ``moves`` (or refuses the command) and calls again.
+    Returns the number of flagged robots; or, when some active robot needs more than M
+    moves, minus the most moves one needs (at most :data:`TOO_MANY_MOVES`), having
+    changed nothing: the caller grows ``moves`` (or refuses the command) and calls
+    again.
     """
     capacity = moves.shape[1]
     needed = 0
@@ -96,7 +97,8 @@ def drive(
             if not n <= capacity:  # NaN too
                 needed = max(needed, math.ceil(n) if n < TOO_MANY_MOVES else TOO_MANY_MOVES)
     if needed:
-        return needed
+        return -needed
+    flagged = 0
     for b in range(poses.shape[0]):
         counts[b] = 0
         if not active[b]:
@@ -117,6 +119,7 @@ def drive(
             if not free:
                 counts[b] = n
                 reaches[b] = reach
+                flagged += 1
         for k in range(n):
             mid_heading = heading + half_turn
             heading += turn
@@ -131,4 +134,4 @@ def drive(
         poses[b, 0] = x
         poses[b, 1] = y
         poses[b, 2] = wrap_heading(heading)
-    return 0
+    return flagged

@@ -83,7 +83,8 @@ def test_drive_is_the_python_loop(seed) -> None:
     moves, counts, reaches, blocked = outputs(b, capacity)
     start, disks_before = poses.copy(), disks.copy()
     args = (RADIUS, DT, SUBSTEPS, moves, counts, reaches, blocked)
-    assert drive(poses, disks, commands, active, *args) == 0
+    flagged = drive(poses, disks, commands, active, *args)
+    assert flagged == np.count_nonzero(counts) > 0
     np.testing.assert_array_equal(disks, disks_before)
     kinds = set()
     for i in range(b):
@@ -140,7 +141,7 @@ def test_too_many_moves_change_nothing_and_say_how_many(speed) -> None:
     needed = drive(poses, disks, commands, np.ones(8, bool), *args)
     moves_per_step = abs(speed) * DT / (MAX_MOVE_FRACTION * RADIUS)
     expected = math.ceil(moves_per_step) if moves_per_step < TOO_MANY_MOVES else TOO_MANY_MOVES
-    assert needed == (TOO_MANY_MOVES if math.isnan(speed) else expected)
+    assert -needed == (TOO_MANY_MOVES if math.isnan(speed) else expected)
     for a, b in zip((poses, disks, commands), before, strict=True):
         np.testing.assert_array_equal(a, b)
     assert (counts == -1).all() and blocked.all() and np.isnan(moves).all()
