@@ -58,7 +58,6 @@ _MOTION_FILTER = pymunk.ShapeFilter(mask=_ALL & ~CAT_ROBOT)
 # A clearance query looks this much farther (m) than it must, so that its answer also
 # settles the next few moves without a query (see World._clearance).
 CLEARANCE_LOOKAHEAD = 0.5
-_ONE = np.ones(1, dtype=bool)  # a standalone world's active mask: its robot moves
 
 
 class World:
@@ -246,7 +245,7 @@ class World:
         drive = self._drive
         drive.commands[0, 0] = v
         drive.commands[0, 1] = omega
-        if drive(self._pose, self._disk, _ONE, np.zeros(1, dtype=bool)):
+        if drive(self._pose, self._disk, np.ones(1, dtype=bool), np.zeros(1, dtype=bool)):
             return self._settle(drive.moves[0, : drive.counts[0]], float(drive.reaches[0]))
         return False
 

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
 from slam_env.config import EnvConfig
@@ -90,7 +92,7 @@ class WorldBatch:
                 collided[b] = worlds[b]._settle(moves[b, : counts[b]], float(reaches[b]))
         return before
 
-    def __setstate__(self, state: dict) -> None:
+    def __setstate__(self, state: dict[str, Any]) -> None:
         # A copy's worlds hold copies of their rows: give them the copy's own.
         self.__dict__.update(state)
         for index, world in enumerate(self.worlds):

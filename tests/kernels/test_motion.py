@@ -130,6 +130,28 @@ def test_the_clear_disk_boundary() -> None:
                 assert poses[0].tolist() == list(expected)
 
 
+def test_a_reach_exactly_on_the_disk_edge_is_free() -> None:
+    """Centred on the robot (a gap of exactly 0, whichever hypot), a disk whose radius
+    minus CLEARANCE_SLACK is the reach to the last bit frees the step; one float less
+    flags it."""
+    rng = np.random.default_rng(3)
+    for _ in range(100):
+        pose = [rng.uniform(1, 9), rng.uniform(1, 9), rng.uniform(-3, 3)]
+        v, omega = rng.uniform(0.1, 1.0), rng.uniform(-1, 1)
+        reach = RADIUS + v * DT
+        clear = reach + CLEARANCE_SLACK
+        while clear - 0.0 - CLEARANCE_SLACK < reach:
+            clear = math.nextafter(clear, math.inf)
+        while math.nextafter(clear, 0.0) - 0.0 - CLEARANCE_SLACK >= reach:
+            clear = math.nextafter(clear, 0.0)
+        for disk_radius, flags in ((clear, False), (math.nextafter(clear, 0.0), True)):
+            moves, counts, reaches, blocked = outputs(1, SUBSTEPS)
+            args = (RADIUS, DT, SUBSTEPS, moves, counts, reaches, blocked)
+            disks = np.array([[pose[0], pose[1], disk_radius]])
+            drive(np.array([pose]), disks, np.array([[v, omega]]), np.ones(1, bool), *args)
+            assert (counts[0] > 0) == flags
+
+
 @pytest.mark.parametrize("speed", [3.0, 1e6, 1e300, math.inf, math.nan])
 def test_too_many_moves_change_nothing_and_say_how_many(speed) -> None:
     rng = np.random.default_rng(1)
