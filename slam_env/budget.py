@@ -303,7 +303,7 @@ def check_budget(
 
 def _check_work(config: EnvConfig) -> int:
     """The work of a step: robot moves and scan beams. Returns the moves per step."""
-    from slam_env.world import MAX_MOVE_FRACTION
+    from slam_env.kernels.motion import MAX_MOVE_FRACTION
 
     robot = config.robot
     # World.step's count: max(physics_substeps, ⌈|v|·dt / (MAX_MOVE_FRACTION·radius)⌉).

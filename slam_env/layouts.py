@@ -155,6 +155,11 @@ def _fmt(*values: float) -> str:
     return ", ".join(f"{v:.4g}" for v in values)
 
 
+def _landmark_at(lid: int, x: float, y: float) -> str:
+    """How an error message names a landmark."""
+    return f"landmark ID {lid} at ({_fmt(x, y)})"
+
+
 # --------------------------------------------------------------------------- type coercion
 
 
@@ -171,6 +176,8 @@ def _as_float(value: Any, what: str) -> float:
 
 
 def _as_int(value: Any, what: str) -> int:
+    if type(value) is int:  # the common case, already what int() would give
+        return value
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)):
         raise TypeError(f"{what} must be an int, got {type(value).__name__}")
     return int(value)
@@ -183,6 +190,8 @@ def _as_list(value: Any, what: str) -> list[Any]:
 
 
 def _as_floats(value: Any, n: int, what: str) -> tuple[float, ...]:
+    if type(value) is tuple and len(value) == n and all(type(v) is float for v in value):
+        return value  # already what the coercion below makes (a generated layout's)
     items = _as_list(value, what)
     if len(items) != n:
         raise ValueError(f"{what} must have {n} numbers, got {len(items)}")
@@ -417,33 +426,34 @@ class Layout:
         need = max(clearance, LANDMARK_POST_RADIUS)
         boxes = self._obstacle_bboxes
         for lid, (lx, ly) in zip(ids, pos, strict=True):
-            where = f"landmark ID {lid} at ({_fmt(lx, ly)})"
             if not (0.0 <= lx <= W and 0.0 <= ly <= H):
-                raise ValueError(f"{where} is outside the arena [0, {W:g}] × [0, {H:g}]")
+                raise ValueError(
+                    f"{_landmark_at(lid, lx, ly)} is outside the arena [0, {W:g}] × [0, {H:g}]"
+                )
             d = min(lx, W - lx, ly, H - ly)
             if d < need - _EPS:
                 raise ValueError(
-                    f"{where} is {d:.3g} m from the arena boundary, closer than the "
-                    f"clearance/post radius {need:.3g} m"
+                    f"{_landmark_at(lid, lx, ly)} is {d:.3g} m from the arena boundary, "
+                    f"closer than the clearance/post radius {need:.3g} m"
                 )
             for k, (poly, bbox) in enumerate(zip(self.obstacles, boxes, strict=True)):
                 if _bbox_distance(lx, ly, bbox) >= need:
                     continue
                 d = _polygon_signed_distance(lx, ly, poly)
                 if d < 0.0:
-                    raise ValueError(f"{where} is inside obstacle {k}")
+                    raise ValueError(f"{_landmark_at(lid, lx, ly)} is inside obstacle {k}")
                 if d < need - _EPS:
                     raise ValueError(
-                        f"{where} is {d:.3g} m from obstacle {k}, closer than the "
-                        f"clearance/post radius {need:.3g} m"
+                        f"{_landmark_at(lid, lx, ly)} is {d:.3g} m from obstacle {k}, "
+                        f"closer than the clearance/post radius {need:.3g} m"
                     )
             for k, (x0, y0, x1, y1) in enumerate(self.walls):
                 d = _segment_distance(lx, ly, x0, y0, x1, y1) - wall_thickness
                 if d < 0.0:
-                    raise ValueError(f"{where} is inside wall {k}")
+                    raise ValueError(f"{_landmark_at(lid, lx, ly)} is inside wall {k}")
                 if d < need - _EPS:
                     raise ValueError(
-                        f"{where} is {d:.3g} m from wall {k}, closer than the "
+                        f"{_landmark_at(lid, lx, ly)} is {d:.3g} m from wall {k}, closer than the "
                         f"clearance/post radius {need:.3g} m"
                     )
         if len(pos) > 1:

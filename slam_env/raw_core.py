@@ -226,7 +226,7 @@ class RawCore(BatchCore):
         same kernel calls. A reset scan has no faults and pays nothing. Returns the new
         episodes' layouts, in the order of ``resetting``."""
         worlds = self.worlds
-        before = worlds.move(speed, turn, stepping.tolist(), self.collided)
+        before = worlds.move(speed, turn, stepping, self.collided)
         touched = stepping.copy()
         layouts = []
         for b in resetting:

@@ -3,9 +3,10 @@ circular unicycle robot.
 
 The robot is driven kinematically as a unicycle for ``dt`` seconds over ``substeps``
 sub-steps (each: move v·h along the chord of the arc, i.e. at the sub-step's mean
-heading, and turn by ω·h). Before each move
-a pymunk point query checks that the robot's disc is clear at the destination; when
-it is not, the move is bisected down to the contact, so a collision *stops* the
+heading, and turn by ω·h; :mod:`slam_env.kernels.motion` holds that arithmetic, for a
+batch of one here and of B in :class:`~slam_env.world_batch.WorldBatch`). Before each
+move a pymunk point query checks that the robot's disc is clear at the destination;
+when it is not, the move is bisected down to the contact, so a collision *stops* the
 translation while the rotation goes on: the robot behaves like a bumper-equipped
 differential drive. It never slides sideways, because a wheeled robot cannot, and
 because sideways motion is exactly what the seed's odometry model cannot describe (a
@@ -14,14 +15,17 @@ wreck any filter's heading). Moves are at most half the robot's radius, so no sp
 tunnels through anything. One query first checks whether anything is within reach of
 the whole step; in free space that is the only query, and often none is needed: each
 query also bounds the clearance around its point, which settles the next moves
-exactly (see :meth:`World._clearance`).
+exactly (see :meth:`World._clearance`). The compiled kernel settles every step that
+needs no query (turning in place, or the whole step inside the disk an earlier query
+found clear); only the others come back to Python and pymunk (:meth:`World._settle`).
 
 The static geometry lives in pymunk, which moves the robot through its public API, and
 also in arrays (:mod:`slam_env.kernels.geometry`, a batch of one world) for the
 compiled segment queries of line of sight and the proximity scan
 (:mod:`slam_env.kernels.raycast`), which answer exactly as pymunk's own segment queries
-would. The robot's pose is three Python floats, mirrored into its body when the space
-is read, so a pickled world resumes bit-identically.
+would. The robot's pose is a row of floats (the world's own, or its
+:class:`~slam_env.world_batch.WorldBatch`'s), mirrored into its body when the space is
+read, so a pickled world resumes bit-identically.
 """
 
 from __future__ import annotations
@@ -34,13 +38,14 @@ import numpy as np
 import pymunk
 
 from slam_env.config import RobotConfig
+from slam_env.drive import Drive
 from slam_env.kernels import raycast
 from slam_env.kernels.geometry import StaticGeometry, empty_geometry, set_world, static_shapes
+from slam_env.kernels.motion import CLEARANCE_SLACK, MAX_MOVE_FRACTION, wrap_heading
 from slam_env.layouts import LANDMARK_POST_RADIUS, Layout
 
-__all__ = ["LANDMARK_POST_RADIUS", "World"]
+__all__ = ["LANDMARK_POST_RADIUS", "MAX_MOVE_FRACTION", "World"]
 
-MAX_MOVE_FRACTION = 0.5  # longest single move, in robot radii (no tunnelling)
 CONTACT_BISECTIONS = 12  # a blocked move stops within 2⁻¹² of its length of the contact
 
 CAT_ROBOT = 0b0001  # shape filter categories
@@ -48,16 +53,11 @@ CAT_WALL = 0b0010
 CAT_OBSTACLE = 0b0100
 CAT_POST = 0b1000
 _ALL = 0xFFFFFFFF
-_PI = math.pi
-_TWO_PI = 2.0 * math.pi
 # Queries for the robot's motion see everything but the robot itself.
 _MOTION_FILTER = pymunk.ShapeFilter(mask=_ALL & ~CAT_ROBOT)
 # A clearance query looks this much farther (m) than it must, so that its answer also
 # settles the next few moves without a query (see World._clearance).
 CLEARANCE_LOOKAHEAD = 0.5
-# Slack (m) for round-off when a move is settled from an earlier query's answer; the
-# distances involved are exact to ~1e-15 m.
-_CLEARANCE_SLACK = 1e-9
 
 
 class World:
@@ -120,7 +120,12 @@ class World:
         self._landmark_ids = ids
         self._landmark_points = tuple((x, y) for x, y in positions.tolist())
         self._build_space()
-        # (cx, cy, d): nothing the robot can hit lies closer than d to (cx, cy).
+        # The pose (x, y, θ) and the clear disk (cx, cy, d: nothing the robot can hit
+        # lies closer than d to (cx, cy)) as (1, 3) rows that the motion kernel reads:
+        # the world's own, or a WorldBatch's (see _use_rows). _clear_disk mirrors the
+        # disk as Python floats for the queries.
+        self._pose = np.zeros((1, 3))
+        self._disk = np.array([[0.0, 0.0, -math.inf]])
         self._clear_disk = (0.0, 0.0, -math.inf)
         x, y, theta = layout.start_pose
         self._place(x, y, theta)
@@ -158,20 +163,29 @@ class World:
         self._body = body
         self._robot_shape = shape
 
+    @functools.cached_property
+    def _drive(self) -> Drive:
+        """The motion kernel's buffers for a batch of one, made at the first step (a
+        world of a WorldBatch is moved by the batch's)."""
+        return Drive(1, self.robot.radius, self.dt, self.substeps)
+
     def _place(self, x: float, y: float, theta: float) -> None:
-        self._x, self._y = x, y
-        self._theta = (theta + _PI) % _TWO_PI - _PI
-        # Every query skips the robot, so its body only matters to whoever reads the
-        # space: it is brought up to date there (see `space`), not at every step,
-        # which would cost two pymunk attribute writes per step.
-        self._body_synced = False
+        self._pose[0] = (x, y, wrap_heading(theta))
+
+    def _use_rows(self, pose: np.ndarray, disk: np.ndarray) -> None:
+        """Keep the pose and the clear disk in ``pose`` and ``disk`` from now on ((1, 3)
+        C-contiguous rows, e.g. a WorldBatch's), which take their current values."""
+        pose[0] = self._pose[0]
+        disk[0] = self._disk[0]
+        self._pose, self._disk = pose, disk
 
     # ----------------------------------------------------------------- state
 
     @property
     def pose(self) -> tuple[float, float, float]:
         """(x, y, θ) of the robot: m, m, rad with θ in [−π, π); Python floats."""
-        return (self._x, self._y, self._theta)
+        x, y, theta = self._pose[0].tolist()
+        return (x, y, theta)
 
     @property
     def landmark_positions(self) -> np.ndarray:
@@ -186,11 +200,11 @@ class World:
     @property
     def space(self) -> pymunk.Space:
         """The pymunk space (for drawing and debugging; don't step it directly). The
-        robot's body is moved to the current pose when this is read."""
-        if not self._body_synced:
-            self._body.position = (self._x, self._y)
-            self._body.angle = self._theta
-            self._body_synced = True
+        robot's body is moved to the current pose when this is read (every query
+        skips the robot, so its body only matters to whoever reads the space)."""
+        x, y, theta = self.pose
+        self._body.position = (x, y)
+        self._body.angle = theta
         return self._space
 
     @property
@@ -220,42 +234,38 @@ class World:
 
     def step(self, v: float, omega: float) -> bool:
         """Drive as a unicycle at speed ``v`` (m/s) and turn rate ``omega`` (rad/s) for
-        ``dt``; return True if an obstacle, a wall or a post blocked the motion."""
+        ``dt``; return True if an obstacle, a wall or a post blocked the motion.
+        ``ValueError`` (the robot unmoved) for a non-finite command, or a speed so high
+        that the step would take more than
+        :data:`~slam_env.budget.MAX_MOVES_PER_STEP` moves (or ``substeps``, if more)."""
         v = float(v)
         omega = float(omega)
         if not (math.isfinite(v) and math.isfinite(omega)):
             raise ValueError(f"step needs finite v and omega, got ({v}, {omega})")
-        x, y, a = self._x, self._y, self._theta
-        radius = self.robot.radius
-        substeps, dt = self.substeps, self.dt
-        # Moves no longer than half the robot's radius cannot jump over anything: the
-        # thinnest obstacle (a post or a wall) plus the robot is wider than that.
-        # n = max(substeps, ceil(moves)), without the two calls in the usual case.
-        moves = abs(v) * dt / (MAX_MOVE_FRACTION * radius)
-        n = substeps if moves <= substeps else math.ceil(moves)
-        h = dt / n
-        dth, travel = omega * h, v * h
-        # Midpoint rule: each move follows the chord of the arc, at the mean heading.
-        half_dth = 0.5 * dth
-        cos, sin = math.cos, math.sin
+        drive = self._drive
+        drive.commands[0, 0] = v
+        drive.commands[0, 1] = omega
+        if drive(self._pose, self._disk, np.ones(1, dtype=bool), np.zeros(1, dtype=bool)):
+            return self._settle(drive.moves[0, : drive.counts[0]], float(drive.reaches[0]))
+        return False
+
+    def _settle(self, moves: np.ndarray, reach: float) -> bool:
+        """Move the robot from its position along ``moves`` ((n, 2) displacements, m:
+        :func:`~slam_env.kernels.motion.drive` flagged this step and set the heading),
+        each checked with a clearance query and, when blocked, bisected down to the
+        contact; ``reach`` (m) bounds the whole step. Returns True if blocked."""
+        pose = self._pose[0]
+        x, y = float(pose[0]), float(pose[1])
         blocked = False
-        reach = radius + abs(v) * dt
-        if travel == 0.0:  # turning in place: nothing to check
-            for _ in range(n):
-                a += dth
-        elif self._clearance(x, y, reach) >= reach:
+        radius = self.robot.radius
+        if self._clearance(x, y, reach) >= reach:
             # Nothing within reach of the whole step: no need to check each move.
-            for _ in range(n):
-                mid_heading = a + half_dth
-                a += dth
-                x += travel * cos(mid_heading)
-                y += travel * sin(mid_heading)
+            for dx, dy in moves.tolist():
+                x += dx
+                y += dy
         else:
             clearance = self._clearance
-            for _ in range(n):
-                mid_heading = a + half_dth
-                a += dth
-                dx, dy = travel * cos(mid_heading), travel * sin(mid_heading)
+            for dx, dy in moves.tolist():
                 gap = clearance(x + dx, y + dy, radius)
                 if gap < radius:
                     blocked = True
@@ -263,10 +273,8 @@ class World:
                     dx, dy = lo * dx, lo * dy
                 x += dx
                 y += dy
-        # self._place(x, y, a), inlined
-        self._x, self._y = x, y
-        self._theta = (a + _PI) % _TWO_PI - _PI
-        self._body_synced = False
+        pose[0] = x
+        pose[1] = y
         return blocked
 
     def _clearance(self, x: float, y: float, reach: float) -> float:
@@ -284,13 +292,14 @@ class World:
         when the nearest shape within the larger radius is closer than ``reach``.
         """
         cx, cy, clear = self._clear_disk
-        bound = clear - math.hypot(x - cx, y - cy) - _CLEARANCE_SLACK
+        bound = clear - math.hypot(x - cx, y - cy) - CLEARANCE_SLACK
         if bound >= reach:
             return bound
         radius = reach + CLEARANCE_LOOKAHEAD
         hit = self._space.point_query_nearest((x, y), radius, _MOTION_FILTER)
         clear = radius if hit is None else hit.distance
         self._clear_disk = (x, y, clear)
+        self._disk[0] = self._clear_disk
         return clear
 
     def _contact(self, x: float, y: float, dx: float, dy: float, gap: float) -> float:
@@ -310,7 +319,7 @@ class World:
         for _ in range(CONTACT_BISECTIONS):
             mid = 0.5 * (lo + hi)
             px, py = x + mid * dx, y + mid * dy
-            if hd + math.hypot(px - hx, py - hy) + _CLEARANCE_SLACK < radius:
+            if hd + math.hypot(px - hx, py - hy) + CLEARANCE_SLACK < radius:
                 hi = mid
                 continue
             hit = query((px, py), radius, _MOTION_FILTER)

@@ -2,9 +2,12 @@
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
 from slam_env.config import EnvConfig
+from slam_env.drive import Drive
 from slam_env.faults import kidnap_pose
 from slam_env.kernels.geometry import StaticGeometry, empty_geometry, set_world
 from slam_env.layouts import Layout, layout_for
@@ -12,10 +15,11 @@ from slam_env.world import World
 
 
 class WorldBatch:
-    """The worlds of B sub-envs: a :class:`~slam_env.world.World` each (pymunk moves
-    the robots and resolves their contacts) and, for the kernels, the true poses
-    (B, 3), the landmarks (B, N, 2) with their IDs (B, N) and ID order (B, N), and the
-    static geometry.
+    """The worlds of B sub-envs: a :class:`~slam_env.world.World` each (pymunk answers
+    the clearance queries of the robots' motion and resolves their contacts) and, for
+    the kernels, the true poses (B, 3) and the clear disks (B, 3) (each world's pose
+    and disk are its row of these), the landmarks (B, N, 2) with their IDs (B, N) and
+    ID order (B, N), and the static geometry.
 
     A fixed world (a preset or a user layout) is built once and shared by every
     sub-env; with ``preset="random"`` each reset draws a new world from the sub-env's
@@ -41,6 +45,8 @@ class WorldBatch:
         n = self.n_landmarks
         self.worlds: list[World | None] = [None] * num_envs
         self.poses = np.zeros((num_envs, 3))
+        self.disks = np.zeros((num_envs, 3))
+        self._drive = Drive(num_envs, config.robot.radius, config.dt, config.physics_substeps)
         self.landmarks = np.zeros((num_envs, n, 2))
         self.landmark_ids = np.zeros((num_envs, n), dtype=np.int64)
         self.id_order = np.tile(np.arange(n, dtype=np.int64), (num_envs, 1))
@@ -60,7 +66,7 @@ class WorldBatch:
             validated=True,
         )
         self.worlds[index] = world
-        self.poses[index] = world.pose
+        world._use_rows(self.poses[index : index + 1], self.disks[index : index + 1])
         self.landmarks[index] = world.landmark_positions
         ids = world.landmark_ids
         self.landmark_ids[index] = ids
@@ -69,17 +75,29 @@ class WorldBatch:
         return layout
 
     def move(
-        self, speed: list[float], turn: list[float], active: list[bool], collided: np.ndarray
+        self, speed: list[float], turn: list[float], active: np.ndarray, collided: np.ndarray
     ) -> np.ndarray:
-        """Drive each active robot at ``speed`` m/s and ``turn`` rad/s for one step,
-        its collision flag into ``collided`` (B,). Returns the poses before the step."""
+        """Drive each ``active`` ((B,) bool) robot at ``speed`` m/s and ``turn`` rad/s
+        (lists of B finite floats) for one step, its collision flag into ``collided``
+        (B,). Returns the poses before the step."""
         before = self.poses.copy()
-        poses = self.poses
-        for b, world in enumerate(self.worlds):
-            if active[b]:
-                collided[b] = world.step(speed[b], turn[b])
-                poses[b] = world.pose
+        drive = self._drive
+        commands = drive.commands
+        commands[:, 0] = speed
+        commands[:, 1] = turn
+        flagged = drive(self.poses, self.disks, active, collided)
+        if flagged:
+            worlds, moves, counts, reaches = self.worlds, drive.moves, drive.counts, drive.reaches
+            for b in flagged:
+                collided[b] = worlds[b]._settle(moves[b, : counts[b]], float(reaches[b]))
         return before
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        # A copy's worlds hold copies of their rows: give them the copy's own.
+        self.__dict__.update(state)
+        for index, world in enumerate(self.worlds):
+            if world is not None:
+                world._use_rows(self.poses[index : index + 1], self.disks[index : index + 1])
 
     def kidnap(self, index: int, rng: np.random.Generator) -> bool:
         """Carry robot ``index`` to a random free pose drawn from ``rng``; False when
@@ -88,6 +106,5 @@ class WorldBatch:
         pose = kidnap_pose(world, rng)
         if pose is None:
             return False
-        world.set_pose(*pose)
-        self.poses[index] = world.pose
+        world.set_pose(*pose)  # into its row of the poses
         return True

@@ -1,0 +1,62 @@
+"""The compiled motion of B robots of one size: the buffers of
+:func:`slam_env.kernels.motion.drive` and its call, shared by a
+:class:`~slam_env.world.World` (a batch of one) and a
+:class:`~slam_env.world_batch.WorldBatch`."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from slam_env.budget import MAX_MOVES_PER_STEP
+from slam_env.kernels.motion import drive
+
+
+class Drive:
+    """Drives B robots of ``radius`` (m) for ``dt`` s in at least ``substeps`` moves.
+
+    Set :attr:`commands` ((B, 2): speed m/s, turn rate rad/s), then call; the robots the
+    kernel flags are listed for the caller to settle with clearance queries along
+    ``moves[b, :counts[b]]`` from ``reaches[b]`` (see
+    :func:`~slam_env.kernels.motion.drive`). The moves buffer starts at ``substeps`` rows
+    and grows for fast commands up to :data:`~slam_env.budget.MAX_MOVES_PER_STEP` (or
+    ``substeps``, if more); a command that needs more is refused.
+    """
+
+    def __init__(self, num_envs: int, radius: float, dt: float, substeps: int) -> None:
+        self.radius = float(radius)
+        self.dt = float(dt)
+        self.substeps = int(substeps)
+        self.max_moves = max(MAX_MOVES_PER_STEP, self.substeps)
+        self.commands = np.zeros((num_envs, 2))
+        self.moves = np.zeros((num_envs, self.substeps, 2))
+        self.counts = np.zeros(num_envs, dtype=np.int64)
+        self.reaches = np.zeros(num_envs)
+
+    def __call__(
+        self, poses: np.ndarray, disks: np.ndarray, active: np.ndarray, blocked: np.ndarray
+    ) -> list[int]:
+        """Move the ``active`` ((B,) bool) robots of ``poses`` ((B, 3), in place) with
+        clear disks ``disks`` ((B, 3)); ``blocked[b]`` ((B,) bool) becomes False for each.
+        Returns the flagged robots, whose positions the caller settles. ``ValueError``,
+        with nothing moved, if a speed would take more than :attr:`max_moves` moves."""
+        commands, radius, dt, substeps = self.commands, self.radius, self.dt, self.substeps
+        counts, reaches = self.counts, self.reaches
+        flagged = drive(
+            poses, disks, commands, active, radius, dt, substeps, self.moves, counts, reaches,
+            blocked,
+        )  # fmt: skip
+        if flagged < 0:  # more moves than the buffer holds: nothing moved yet
+            needed = -flagged
+            if needed > self.max_moves:
+                speeds = np.abs(commands[np.asarray(active, dtype=bool), 0])
+                raise ValueError(
+                    f"speed {speeds.max():g} m/s is too fast for a {dt:g} s step: it needs "
+                    f"more than {self.max_moves} moves of at most half the robot's radius "
+                    f"({radius:g} m); see slam_env.budget.MAX_MOVES_PER_STEP"
+                )
+            self.moves = np.zeros((self.moves.shape[0], needed, 2))
+            flagged = drive(
+                poses, disks, commands, active, radius, dt, substeps, self.moves, counts,
+                reaches, blocked,
+            )  # fmt: skip
+        return np.flatnonzero(counts).tolist() if flagged else []

@@ -1,0 +1,137 @@
+"""The robots' unicycle motion over one step, for B worlds in one call.
+
+A robot driven at speed v (m/s) and turn rate ω (rad/s) for ``dt`` seconds moves in
+n = max(substeps, ⌈|v|·dt / (MAX_MOVE_FRACTION·radius)⌉) moves: each turns by ω·h
+(h = dt / n) and travels v·h along the chord of the arc, at the move's mean heading
+(the midpoint rule). Moves no longer than half the robot's radius cannot jump over
+anything: the thinnest obstacle (a post or a wall) plus the robot is wider.
+
+:func:`drive` settles every robot that needs no clearance query (turning in place, or
+the whole step inside the disk that an earlier query found free) and flags the others
+with their moves, which the caller resolves with pymunk's point queries
+(:meth:`slam_env.world.World._settle`): the queries stay pymunk's, the arithmetic of the
+moves is written here once.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from slam_env.kernels import inline_kernel, kernel
+
+MAX_MOVE_FRACTION = 0.5  # longest single move, in robot radii (no tunnelling)
+# Slack (m) for round-off when a move is settled from an earlier query's answer; the
+# distances involved are exact to ~1e-15 m.
+CLEARANCE_SLACK = 1e-9
+# What drive reports for a command whose move count is not even a number (|v|·dt
+# overflows): more than any buffer can hold.
+TOO_MANY_MOVES = 2**62
+
+_PI = math.pi
+_TWO_PI = 2.0 * math.pi
+
+
+@inline_kernel
+def wrap_heading(theta: float) -> float:
+    """The world's heading (rad) wrapped to [−π, π) by Python's float ``%`` (the sign of
+    the divisor); at round-off it can give +π, unlike :func:`slam_env.kernels.angles.wrap`,
+    and the worlds' recorded streams depend on it bit for bit."""
+    return (theta + _PI) % _TWO_PI - _PI
+
+
+@inline_kernel
+def move_count(speed: float, dt: float, radius: float, substeps: int) -> float:
+    """max(substeps, |v|·dt / (MAX_MOVE_FRACTION·radius)) before rounding up: the moves a
+    step at ``speed`` (m/s) takes, as a float (NaN or inf for absurd commands)."""
+    moves = abs(speed) * dt / (MAX_MOVE_FRACTION * radius)
+    return substeps if moves <= substeps else moves
+
+
+@kernel
+def drive(
+    poses: np.ndarray,
+    disks: np.ndarray,
+    commands: np.ndarray,
+    active: np.ndarray,
+    radius: float,
+    dt: float,
+    substeps: int,
+    moves: np.ndarray,
+    counts: np.ndarray,
+    reaches: np.ndarray,
+    blocked: np.ndarray,
+) -> int:
+    """Drive each ``active`` robot b for ``dt`` s at ``commands[b] = (v, ω)``.
+
+    Args:
+        poses: (B, 3) (x, y, θ) m, m, rad; updated in place (see below).
+        disks: (B, 3) each robot's clear disk (cx, cy, d): nothing it can hit lies
+            closer than d to (cx, cy). Read only.
+        commands: (B, 2) speed (m/s) and turn rate (rad/s), finite.
+        active: (B,) bool, the robots that move.
+        radius: the robots' radius, m. dt: the step, s. substeps: the fewest moves.
+        moves: (B, M, 2) out: the displacements (m) of a flagged robot's moves.
+        counts: (B,) int64 out: a flagged robot's number of moves, else 0.
+        reaches: (B,) out: a flagged robot's reach radius + |v|·dt (m): nothing within
+            it of its start can block any of its moves.
+        blocked: (B,) bool out: False for every active robot (a flagged robot's is
+            the caller's to set).
+
+    An unflagged robot's pose is final. A flagged one (moving, and its reach not inside
+    its clear disk) has its final heading (the rotation goes on when a contact stops the
+    translation) but keeps its position, for the caller to move along ``moves[b, :n]``
+    with clearance queries.
+
+    Returns the number of flagged robots; or, when some active robot needs more than M
+    moves, minus the most moves one needs (at most :data:`TOO_MANY_MOVES`), having
+    changed nothing: the caller grows ``moves`` (or refuses the command) and calls
+    again.
+    """
+    capacity = moves.shape[1]
+    needed = 0
+    for b in range(poses.shape[0]):
+        if active[b]:
+            n = move_count(commands[b, 0], dt, radius, substeps)
+            if not n <= capacity:  # NaN too
+                needed = max(needed, math.ceil(n) if n < TOO_MANY_MOVES else TOO_MANY_MOVES)
+    if needed:
+        return -needed
+    flagged = 0
+    for b in range(poses.shape[0]):
+        counts[b] = 0
+        if not active[b]:
+            continue
+        blocked[b] = False
+        v, omega = commands[b, 0], commands[b, 1]
+        n = math.ceil(move_count(v, dt, radius, substeps))
+        h = dt / n
+        turn, travel = omega * h, v * h
+        half_turn = 0.5 * turn
+        x, y, heading = poses[b, 0], poses[b, 1], poses[b, 2]
+        moving = travel != 0.0
+        free = True
+        if moving:
+            reach = radius + abs(v) * dt
+            gap = math.hypot(x - disks[b, 0], y - disks[b, 1])
+            free = disks[b, 2] - gap - CLEARANCE_SLACK >= reach
+            if not free:
+                counts[b] = n
+                reaches[b] = reach
+                flagged += 1
+        for k in range(n):
+            mid_heading = heading + half_turn
+            heading += turn
+            if moving:
+                dx, dy = travel * math.cos(mid_heading), travel * math.sin(mid_heading)
+                if free:
+                    x += dx
+                    y += dy
+                else:
+                    moves[b, k, 0] = dx
+                    moves[b, k, 1] = dy
+        poses[b, 0] = x
+        poses[b, 1] = y
+        poses[b, 2] = wrap_heading(heading)
+    return flagged

@@ -1,0 +1,114 @@
+"""WorldBatch: B worlds moved by one kernel call are the standalone worlds, bit for bit;
+each world's pose lives in the batch's row, through pickling too."""
+
+from __future__ import annotations
+
+import copy
+import math
+import pickle
+
+import numpy as np
+import pytest
+
+from slam_env.config import EnvConfig, WorldConfig
+from slam_env.world import World
+from slam_env.world_batch import WorldBatch
+
+B = 6
+
+
+def batch_and_twins(config: EnvConfig) -> tuple[WorldBatch, list[World]]:
+    batch = WorldBatch(config, B)
+    twins = []
+    for b in range(B):
+        layout = batch.reset(b, np.random.default_rng(b))
+        twins.append(
+            World(
+                layout,
+                config.robot,
+                config.dt,
+                config.physics_substeps,
+                config.world.wall_thickness,
+            )
+        )
+    return batch, twins
+
+
+def commands(rng: np.random.Generator, config: EnvConfig) -> tuple[list[float], list[float]]:
+    """Mostly full speed ahead (so that robots press into things), some reversing,
+    turning in place and standing still."""
+    speed = rng.choice([1.0, 1.0, 1.0, -0.6, 0.0], B) * config.robot.max_speed
+    turn = rng.uniform(-1.0, 1.0, B) * config.robot.max_turn_rate
+    return speed.tolist(), turn.tolist()
+
+
+@pytest.mark.parametrize("preset", ["random", "cluttered", "rooms"])
+def test_moving_the_batch_is_stepping_each_world(preset) -> None:
+    config = EnvConfig(world=WorldConfig(preset=preset))
+    batch, twins = batch_and_twins(config)
+    rng = np.random.default_rng(0)
+    collided = np.zeros(B, dtype=bool)
+    n_collisions = 0
+    for i in range(300):
+        speed, turn = commands(rng, config)
+        active = rng.random(B) < 0.9
+        collided[:] = False
+        before = batch.move(speed, turn, active, collided)
+        for b, twin in enumerate(twins):
+            if active[b]:
+                assert collided[b] == twin.step(speed[b], turn[b]), (i, b)
+            assert batch.poses[b].tolist() == list(twin.pose) == list(batch.worlds[b].pose)
+        assert not np.shares_memory(before, batch.poses)
+        n_collisions += int(collided.sum())
+    assert n_collisions > 20  # contacts were resolved, not only free moves
+
+
+@pytest.mark.parametrize("how", ["pickle", "deepcopy"])
+def test_a_copied_batch_moves_its_own_worlds(how) -> None:
+    config = EnvConfig()
+    batch, _ = batch_and_twins(config)
+    rng = np.random.default_rng(1)
+    active = np.ones(B, dtype=bool)
+    collided = np.zeros(B, dtype=bool)
+    for _ in range(20):
+        batch.move(*commands(rng, config), active, collided)
+    clone = pickle.loads(pickle.dumps(batch)) if how == "pickle" else copy.deepcopy(batch)
+    for _ in range(20):
+        speed, turn = commands(rng, config)
+        batch.move(speed, turn, active, collided)
+        clone.move(speed, turn, active, collided.copy())
+    np.testing.assert_array_equal(clone.poses, batch.poses)
+    for b in range(B):
+        assert list(clone.worlds[b].pose) == clone.poses[b].tolist()
+        assert clone.worlds[b].pose == batch.worlds[b].pose
+
+
+def test_a_worlds_pose_is_its_batch_row() -> None:
+    batch, _ = batch_and_twins(EnvConfig(world=WorldConfig(preset="open")))
+    world = batch.worlds[2]
+    world.set_pose(3.0, 4.0, 0.5)
+    assert batch.poses[2].tolist() == [3.0, 4.0, 0.5]
+    world.step(0.5, 0.1)  # a world of a batch still steps on its own
+    assert batch.poses[2].tolist() == list(world.pose) != [3.0, 4.0, 0.5]
+
+
+def test_a_speed_beyond_the_move_budget_is_refused_with_nothing_moved() -> None:
+    config = EnvConfig()
+    batch, twins = batch_and_twins(config)
+    poses = batch.poses.copy()
+    collided = np.ones(B, dtype=bool)
+    speed = [0.5] * B
+    speed[4] = 1e6
+    with pytest.raises(ValueError, match="too fast"):
+        batch.move(speed, [0.0] * B, np.ones(B, dtype=bool), collided)
+    np.testing.assert_array_equal(batch.poses, poses)
+    assert collided.all()
+    world = twins[0]
+    pose = world.pose
+    for v in (1e4, -1e300, math.nextafter(math.inf, 0.0)):
+        with pytest.raises(ValueError, match="too fast"):
+            world.step(v, 1.0)
+        assert world.pose == pose
+    # Fast, but within the budget: more moves than substeps, same as a slow step's rules.
+    fast = 0.5 * config.robot.radius * 50 / config.dt
+    assert world.step(fast, 0.0) or world.pose != pose
