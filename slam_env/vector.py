@@ -39,11 +39,13 @@ def with_masks(
     the sub-envs that reported it, ``reported`` ((B,) bool), and with it ``masks[key]``
     for a key that not all of them report (a key none reports is left out); nested
     dicts likewise."""
+    masks = masks or {}
+    anyone = bool(reported.any())  # once: most keys are reported by every sub-env
     out: dict[str, Any] = {}
     for key, value in info.items():
-        own = (masks or {}).get(key)
+        own = masks.get(key)
         mask = reported.copy() if own is None else reported & own
-        if not mask.any():
+        if not (anyone if own is None else mask.any()):
             continue  # as Gymnasium: a key no sub-env reported is not there
         out[key] = with_masks(value, reported) if isinstance(value, dict) else value
         out[f"_{key}"] = mask
