@@ -11,7 +11,7 @@ import pytest
 
 import slam_env  # noqa: F401  (registers the env IDs)
 from slam_env.env import LandmarksEnv
-from slam_env.kernels import ekf
+from slam_env.kernels import ekf_codes
 from slam_env.wrappers import EKFSLAMWrapper
 
 ACTIVE = "slam_env/ActiveSLAM-v0"
@@ -67,8 +67,8 @@ def test_other_exceptions_from_the_filter_are_not_hidden(monkeypatch):
 # prediction's noise beyond any covariance overflows it; a negative measurement noise
 # leaves the innovation covariance not positive definite.
 SABOTAGE = {
-    "predict": ([ekf.NOISE, ekf.NOISE + 1, ekf.NOISE + 2, ekf.NOISE + 3], 1e308),
-    "update": ([ekf.Q00, ekf.Q11], -1e6),
+    "predict": ([ekf_codes.NOISE + i for i in range(4)], 1e308),
+    "update": ([ekf_codes.Q00, ekf_codes.Q11], -1e6),
 }
 
 
@@ -90,7 +90,7 @@ def test_a_kernel_failure_is_reported_as_diverged_by_the_env(call):
         assert env.observation_space.contains(obs) and math.isfinite(reward)
         assert info["diverged"]
         if call == "update":  # the update was refused: the prediction alone moved P
-            assert filters.error[0] == ekf.NOT_POSITIVE_DEFINITE
+            assert filters.error[0] == ekf_codes.NOT_POSITIVE_DEFINITE
             assert np.array_equal(filters.P[0, 3:, 3:], before[1][0, 3:, 3:])
         else:  # the prediction was refused: the pose's variance did not grow
             assert filters.P[0, 0, 0] <= before[1][0, 0, 0]

@@ -59,7 +59,7 @@ import numpy as np
 from slam_env.ekf import checks
 from slam_env.ekf.chi2 import chi2_gate, chi2_ppf, joint_gates
 from slam_env.ekf.models import MEASUREMENT_MODELS, MOTION_MODELS
-from slam_env.kernels import association, ekf
+from slam_env.kernels import association, ekf, ekf_codes
 from slam_env.kernels.models import wrap_angle
 
 __all__ = [
@@ -80,14 +80,14 @@ __all__ = [
 ]
 
 CORRECTION_MODES = ("sequential", "batch")
-_CORRECTION_CODES = {"sequential": ekf.SEQUENTIAL, "batch": ekf.BATCH}
+_CORRECTION_CODES = {"sequential": ekf_codes.SEQUENTIAL, "batch": ekf_codes.BATCH}
 _ASSOCIATION_CODES = {
-    "known": ekf.KNOWN,
-    "nearest_neighbor": ekf.NEAREST_NEIGHBOR,
-    "jcbb": ekf.JCBB,
+    "known": ekf_codes.KNOWN,
+    "nearest_neighbor": ekf_codes.NEAREST_NEIGHBOR,
+    "jcbb": ekf_codes.JCBB,
 }
 DATA_ASSOCIATIONS = tuple(_ASSOCIATION_CODES)
-_LINEARIZATION_CODES = {"standard": ekf.STANDARD, "fej": ekf.FEJ}
+_LINEARIZATION_CODES = {"standard": ekf_codes.STANDARD, "fej": ekf_codes.FEJ}
 LINEARIZATIONS = tuple(_LINEARIZATION_CODES)
 # The association's gates by default: a landmark within the 99.9% χ² region of an
 # observation is compatible with it (as ActiveSLAM-v0's validation gate accepts it);
@@ -169,10 +169,12 @@ class UpdateResult:
 
 # What a kernel's error code means to the caller of EKFSLAM.
 _NUMERICAL_ERRORS = {
-    ekf.NOT_POSITIVE_DEFINITE: "the innovation covariance S is not positive definite: the "
+    ekf_codes.NOT_POSITIVE_DEFINITE: "the innovation covariance S is not positive definite: the "
     "state covariance is no longer positive semi-definite",
-    ekf.NOT_FINITE: "a non-finite value arose (the belief and the observations are beyond float64)",
-    ekf.OVERFLOW: f"a covariance entry would exceed {ekf.COV_LIMIT:g}, or the mean overflow",
+    ekf_codes.NOT_FINITE: "a non-finite value arose (the belief and the observations are beyond "
+    "float64)",
+    ekf_codes.OVERFLOW: f"a covariance entry would exceed {ekf_codes.COV_LIMIT:g}, or the mean "
+    "overflow",
 }
 
 
@@ -753,6 +755,6 @@ class EKFSLAM:
         """The exception for a kernel's error code (the state is as it was)."""
         if code in _NUMERICAL_ERRORS:
             raise FloatingPointError(f"{call} refused: {_NUMERICAL_ERRORS[code]}")
-        if code in (ekf.BAD_INPUT, ekf.BAD_ID, ekf.DUPLICATE_ID):
+        if code in (ekf_codes.BAD_INPUT, ekf_codes.BAD_ID, ekf_codes.DUPLICATE_ID):
             raise bad_input()
-        raise RuntimeError(f"{call}: kernel error {ekf.ERROR_NAMES[code]!r}")  # a bug here
+        raise RuntimeError(f"{call}: kernel error {ekf_codes.ERROR_NAMES[code]!r}")  # a bug here

@@ -45,7 +45,8 @@ import math
 import numpy as np
 
 from slam_env.kernels import kernel
-from slam_env.kernels.ekf import (
+from slam_env.kernels.ekf import largest_count
+from slam_env.kernels.ekf_codes import (
     ASSOCIATION,
     DISCARD_ID,
     JCBB,
@@ -57,7 +58,6 @@ from slam_env.kernels.ekf import (
     Q11,
     SIGHTINGS,
     TENTATIVE_ID,
-    largest_count,
 )
 from slam_env.kernels.models import (
     innovation,

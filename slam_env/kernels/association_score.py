@@ -21,7 +21,7 @@ from __future__ import annotations
 import numpy as np
 
 from slam_env.kernels import kernel
-from slam_env.kernels.ekf import CORRECTED, DISCARDED, INITIALISED, REJECTED, TENTATIVE
+from slam_env.kernels.ekf_codes import CORRECTED, DISCARDED, INITIALISED, REJECTED, TENTATIVE
 
 # Columns of the counts.
 CORRECT, WRONG, MISSED, DUPLICATED = 0, 1, 2, 3

@@ -14,7 +14,7 @@ import pytest
 
 from slam_env.ekf import DISCARDED, EKFSLAM, INITIALISED, TENTATIVE, chi2_gate
 from slam_env.ekf.models import MEASUREMENT_MODELS, MOTION_MODELS
-from slam_env.kernels import association, ekf
+from slam_env.kernels import association, ekf_codes
 from slam_env.kernels import association_score as score
 
 ALPHAS = (0.002, 0.001, 0.002, 0.001)
@@ -214,8 +214,8 @@ def test_the_scores_of_a_hand_made_update():
     truth = np.array([[5, 7, -1, 9, 7, 0, -1, 5]])
     assigned = np.array([[0, 0, -1, -1, 2, 3, 4, 0]])
     status = np.array(
-        [[ekf.CORRECTED, ekf.CORRECTED, DISCARDED, DISCARDED, INITIALISED, INITIALISED,
-          INITIALISED, ekf.REJECTED]], dtype=np.int8,
+        [[ekf_codes.CORRECTED, ekf_codes.CORRECTED, DISCARDED, DISCARDED, INITIALISED, INITIALISED,
+          INITIALISED, ekf_codes.REJECTED]], dtype=np.int8,
     )  # fmt: skip
     slot_truth = np.full((1, M), -1)
     slot_truth[0, :2] = (5, 7)
@@ -242,7 +242,9 @@ def test_the_scores_of_landmark_zero_and_of_clutter_given_to_clutter():
     mapped), one of clutter correct."""
     truth = np.array([[0, -1, 0, -1]])
     assigned = np.array([[0, 1, -2, -2]])
-    status = np.array([[ekf.CORRECTED, ekf.CORRECTED, TENTATIVE, TENTATIVE]], dtype=np.int8)
+    status = np.array(
+        [[ekf_codes.CORRECTED, ekf_codes.CORRECTED, TENTATIVE, TENTATIVE]], dtype=np.int8
+    )
     slot_truth = np.array([[0, -1, -1]])
     step = np.zeros((1, 4), dtype=np.int64)
     score.score_association(

@@ -13,7 +13,7 @@ import pytest
 
 from slam_env.ekf import EKFSLAM, Status, kernel_config
 from slam_env.ekf.models import MEASUREMENT_MODELS, MOTION_MODELS
-from slam_env.kernels import ekf
+from slam_env.kernels import ekf, ekf_codes
 from slam_env.kernels.models import wrap_angle
 
 M = 8  # landmark capacity of every world
@@ -141,16 +141,16 @@ def test_b_worlds_equal_b_independent_filters_bit_for_bit():
         error = batch.predict(u, mask)
         for b, f in enumerate(filters):
             if not mask[b]:
-                assert error[b] == ekf.OK
+                assert error[b] == ekf_codes.OK
                 continue
             cdim = MOTION_MODELS[CONFIGS[b][0]].control_dim
             if overflow[b]:
                 with pytest.raises(FloatingPointError, match="overflow"):
                     f.predict(u[b, :cdim])
-                assert error[b] == ekf.OVERFLOW
+                assert error[b] == ekf_codes.OVERFLOW
             else:
                 f.predict(u[b, :cdim])
-                assert error[b] == ekf.OK
+                assert error[b] == ekf_codes.OK
                 poses[b] = MOTION_MODELS[CONFIGS[b][0]].motion(poses[b], u[b, :cdim])
             assert_same(batch, b, f)
 
@@ -177,22 +177,26 @@ def test_b_worlds_equal_b_independent_filters_bit_for_bit():
             k = int(counts[b])
             if not mask[b]:
                 outcomes["masked"] += 1
-                assert error[b] == ekf.OK
-                assert (status[b] == ekf.UNUSED).all() and np.isnan(nis[b]).all()
+                assert error[b] == ekf_codes.OK
+                assert (status[b] == ekf_codes.UNUSED).all() and np.isnan(nis[b]).all()
                 assert_same(batch, b, f)
                 continue
             try:
                 result = f.update(z[b, :k], ids[b, :k])
             except FloatingPointError:
                 outcomes["fpe"] += 1
-                assert error[b] in (ekf.OVERFLOW, ekf.NOT_FINITE, ekf.NOT_POSITIVE_DEFINITE)
-                assert (status[b] == ekf.UNUSED).all() and np.isnan(nis[b]).all()
+                assert error[b] in (
+                    ekf_codes.OVERFLOW,
+                    ekf_codes.NOT_FINITE,
+                    ekf_codes.NOT_POSITIVE_DEFINITE,
+                )
+                assert (status[b] == ekf_codes.UNUSED).all() and np.isnan(nis[b]).all()
             else:
                 outcomes["ok"] += 1
-                assert error[b] == ekf.OK
+                assert error[b] == ekf_codes.OK
                 np.testing.assert_array_equal(status[b, :k], result.status)
                 np.testing.assert_array_equal(nis[b, :k], result.nis)
-                assert (status[b, k:] == ekf.UNUSED).all() and np.isnan(nis[b, k:]).all()
+                assert (status[b, k:] == ekf_codes.UNUSED).all() and np.isnan(nis[b, k:]).all()
                 outcomes["statuses"].update(result.status.tolist())
             assert_same(batch, b, f)
     assert outcomes["ok"] > 100 and outcomes["fpe"] >= 5 and outcomes["masked"] >= 20
@@ -201,9 +205,10 @@ def test_b_worlds_equal_b_independent_filters_bit_for_bit():
 
 def test_the_status_codes_are_the_filters():
     assert tuple(Status) == (
-        ekf.CORRECTED, ekf.INITIALISED, ekf.REJECTED, ekf.DISCARDED, ekf.TENTATIVE,
+        ekf_codes.CORRECTED, ekf_codes.INITIALISED, ekf_codes.REJECTED, ekf_codes.DISCARDED,
+        ekf_codes.TENTATIVE,
     )  # fmt: skip
-    assert len(ekf.ERROR_NAMES) == ekf.OVERFLOW + 1
+    assert len(ekf_codes.ERROR_NAMES) == ekf_codes.OVERFLOW + 1
 
 
 def _two_worlds(max_obs: int = 3) -> Batch:
@@ -213,7 +218,7 @@ def _two_worlds(max_obs: int = 3) -> Batch:
     z = np.array([[[2.0, 0.1], [3.0, -0.4], [0, 0]]] * 2)
     ids = np.array([[0, 3, 0]] * 2)
     _, _, error = batch.update(z, ids, np.array([2, 2]), np.ones(2, dtype=np.bool_))
-    assert (error == ekf.OK).all() and (batch.n == 2).all()
+    assert (error == ekf_codes.OK).all() and (batch.n == 2).all()
     batch.predict(np.array([[0.1, 0.5, 0.0]] * 2), np.ones(2, dtype=np.bool_))
     return batch
 
@@ -221,14 +226,14 @@ def _two_worlds(max_obs: int = 3) -> Batch:
 @pytest.mark.parametrize(
     ("z", "ids", "count", "code"),
     [
-        ([[2.0, 0.1], [np.nan, 0.0]], [0, 1], 2, ekf.BAD_INPUT),
-        ([[2.0, 0.1], [np.inf, 0.0]], [0, 1], 2, ekf.BAD_INPUT),
-        ([[2.0, 0.1], [1.0, 0.0]], [0, M], 2, ekf.BAD_ID),
-        ([[2.0, 0.1], [1.0, 0.0]], [-1, 2], 2, ekf.BAD_ID),
-        ([[2.0, 0.1], [1.0, 0.0], [1.0, 1.0]], [3, 1, 3], 3, ekf.DUPLICATE_ID),
-        ([[2.0, 0.1], [1.0, 0.0]], [0, 1], 4, ekf.BAD_INPUT),
-        ([[2.0, 0.1], [1.0, 0.0]], [0, 1], -1, ekf.BAD_INPUT),
-        ([[2.1, 0.1], [1e300, 0.0]], [0, 1], 2, ekf.OVERFLOW),
+        ([[2.0, 0.1], [np.nan, 0.0]], [0, 1], 2, ekf_codes.BAD_INPUT),
+        ([[2.0, 0.1], [np.inf, 0.0]], [0, 1], 2, ekf_codes.BAD_INPUT),
+        ([[2.0, 0.1], [1.0, 0.0]], [0, M], 2, ekf_codes.BAD_ID),
+        ([[2.0, 0.1], [1.0, 0.0]], [-1, 2], 2, ekf_codes.BAD_ID),
+        ([[2.0, 0.1], [1.0, 0.0], [1.0, 1.0]], [3, 1, 3], 3, ekf_codes.DUPLICATE_ID),
+        ([[2.0, 0.1], [1.0, 0.0]], [0, 1], 4, ekf_codes.BAD_INPUT),
+        ([[2.0, 0.1], [1.0, 0.0]], [0, 1], -1, ekf_codes.BAD_INPUT),
+        ([[2.1, 0.1], [1e300, 0.0]], [0, 1], 2, ekf_codes.OVERFLOW),
     ],
 )
 def test_a_refused_world_keeps_its_state_and_the_other_commits(z, ids, count, code):
@@ -239,11 +244,11 @@ def test_a_refused_world_keeps_its_state_and_the_other_commits(z, ids, count, co
     ids[1] = [0, 1, 2]
     before = batch.snapshot(0)
     status, nis, error = batch.update(z, ids, np.array([count, 3]), np.ones(2, dtype=np.bool_))
-    assert error.tolist() == [code, ekf.OK]
+    assert error.tolist() == [code, ekf_codes.OK]
     for mine, then in zip(batch.snapshot(0), before, strict=True):
         np.testing.assert_array_equal(mine, then)
-    assert (status[0] == ekf.UNUSED).all() and np.isnan(nis[0]).all()
-    assert status[1].tolist() == [ekf.CORRECTED, ekf.INITIALISED, ekf.INITIALISED]
+    assert (status[0] == ekf_codes.UNUSED).all() and np.isnan(nis[0]).all()
+    assert status[1].tolist() == [ekf_codes.CORRECTED, ekf_codes.INITIALISED, ekf_codes.INITIALISED]
     assert batch.n.tolist() == [2, 4]
 
 
@@ -258,8 +263,8 @@ def test_an_indefinite_covariance_is_refused_after_corrections_were_made(correct
     batch.P[0, s : s + 2, s : s + 2] = -10.0 * np.eye(2)  # white box: S is indefinite
     before = batch.snapshot(0)
     status, _, error = batch.update(z + 0.01, np.array([[0, 1, 3]]), np.array([3]), one)
-    assert error.tolist() == [ekf.NOT_POSITIVE_DEFINITE]
-    assert (status == ekf.UNUSED).all()
+    assert error.tolist() == [ekf_codes.NOT_POSITIVE_DEFINITE]
+    assert (status == ekf_codes.UNUSED).all()
     for mine, then in zip(batch.snapshot(0), before, strict=True):
         np.testing.assert_array_equal(mine, then)
 
@@ -275,7 +280,7 @@ def test_a_non_finite_belief_is_refused():
     _, _, error = batch.update(
         np.array([[[1.0, 2.0], [0, 0]]]), np.array([[5, 0]]), np.array([1]), one
     )
-    assert error.tolist() == [ekf.NOT_FINITE]
+    assert error.tolist() == [ekf_codes.NOT_FINITE]
     for mine, then in zip(batch.snapshot(0), before, strict=True):
         np.testing.assert_array_equal(mine, then)
 
@@ -289,15 +294,15 @@ def test_too_small_a_workspace_is_refused_for_the_worlds_asked_for():
     z = np.ones((2, 5, 2))
     ids = np.tile(np.arange(5), (2, 1))
     status, _, error = batch.update(z, ids, np.array([3, 5]), np.array([True, False]))
-    assert error.tolist() == [ekf.SMALL_WORKSPACE, ekf.OK]
-    assert (status == ekf.UNUSED).all()
+    assert error.tolist() == [ekf_codes.SMALL_WORKSPACE, ekf_codes.OK]
+    assert (status == ekf_codes.UNUSED).all()
     for b in range(2):
         for mine, then in zip(batch.snapshot(b), before[b], strict=True):
             np.testing.assert_array_equal(mine, then)
     batch.work = np.empty(ekf.update_workspace_size(DMAX, 3))
     status, _, error = batch.update(z, ids, np.array([3, 5]), np.array([True, False]))
-    assert error.tolist() == [ekf.OK, ekf.OK]
-    assert (status[0, :3] != ekf.UNUSED).all() and (status[0, 3:] == ekf.UNUSED).all()
+    assert error.tolist() == [ekf_codes.OK, ekf_codes.OK]
+    assert (status[0, :3] != ekf_codes.UNUSED).all() and (status[0, 3:] == ekf_codes.UNUSED).all()
 
 
 def test_predict_refuses_a_non_finite_control_and_an_overflow_per_world():
@@ -305,7 +310,7 @@ def test_predict_refuses_a_non_finite_control_and_an_overflow_per_world():
     before = [batch.snapshot(b) for b in range(2)]
     u = np.array([[0.1, np.nan, 0.0], [0.0, 1e200, 0.0]])
     error = batch.predict(u, np.ones(2, dtype=np.bool_))
-    assert error.tolist() == [ekf.BAD_INPUT, ekf.OVERFLOW]
+    assert error.tolist() == [ekf_codes.BAD_INPUT, ekf_codes.OVERFLOW]
     for b in range(2):
         for mine, then in zip(batch.snapshot(b), before[b], strict=True):
             np.testing.assert_array_equal(mine, then)
@@ -314,7 +319,7 @@ def test_predict_refuses_a_non_finite_control_and_an_overflow_per_world():
     batch.P[1, 3:7, 2] = 1e299
     before = batch.snapshot(1)
     error = batch.predict(np.array([[0.1, 0.2, 0.0], [0.0, 100.0, 0.0]]), np.ones(2, np.bool_))
-    assert error.tolist() == [ekf.OK, ekf.OVERFLOW]
+    assert error.tolist() == [ekf_codes.OK, ekf_codes.OVERFLOW]
     for mine, then in zip(batch.snapshot(1), before, strict=True):
         np.testing.assert_array_equal(mine, then)
 
@@ -324,7 +329,7 @@ def test_predict_touches_only_the_masked_worlds_and_reads_two_columns_for_veloci
     batch = Batch(configs, 1)
     before = batch.snapshot(1)
     error = batch.predict(np.array([[0.5, 0.1]]).repeat(2, 0), np.array([True, False]))
-    assert error.tolist() == [ekf.OK, ekf.OK]
+    assert error.tolist() == [ekf_codes.OK, ekf_codes.OK]
     expected = MOTION_MODELS["velocity"].motion((0.1, -0.2, 3.1), (0.5, 0.1))
     np.testing.assert_allclose(batch.x[0, :3], expected, rtol=0, atol=1e-15)
     for mine, then in zip(batch.snapshot(1), before, strict=True):
@@ -350,7 +355,7 @@ def test_the_workspace_is_as_large_as_an_update_needs_and_no_larger():
     batch.update(z, ids, np.array([D]), one)
     batch.work[:] = np.nan
     _, _, error = batch.update(z + 0.01, ids, np.array([D]), one)
-    assert error.tolist() == [ekf.OK]
+    assert error.tolist() == [ekf_codes.OK]
     assert batch.work[-1] == 1.0
 
 
@@ -364,5 +369,5 @@ def test_predict_judges_the_new_cross_covariances_not_their_terms(heading, row):
     batch.P[:, 2, 3:7] = batch.P[:, 3:7, 2] = 1e298
     batch.P[:, row, 3:7] = batch.P[:, 3:7, row] = -1e300  # cancelled by 100 × 1e298
     error = batch.predict(np.array([[0.0, 100.0, 0.0]] * 2), np.ones(2, dtype=np.bool_))
-    assert error.tolist() == [ekf.OK, ekf.OK]
+    assert error.tolist() == [ekf_codes.OK, ekf_codes.OK]
     assert np.abs(batch.P[:, row, 3:7]).max() < 1e286

@@ -1,0 +1,518 @@
+"""The pieces of the batched EKF-SLAM update (:func:`slam_env.kernels.ekf.update`
+puts them together): linearising an observation (:func:`_add_observation`), the
+Joseph-form correction of a group of observations (:func:`_correct_group`, its factor
+:func:`_joseph_factor`), the new landmarks' initialisation (:func:`_new_landmarks`), the
+check and the one application of the deferred covariance factors (:func:`_factor_check`,
+:func:`_apply_factors`) and the commit of the new landmarks (:func:`_commit_new`). None
+of them writes the state but the last two, which run only once everything is checked.
+The codes they return are those of :mod:`.ekf_codes`."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from slam_env.kernels import kernel
+from slam_env.kernels.ekf_codes import (
+    CORRECTED,
+    COV_LIMIT,
+    FLOAT_MAX,
+    GATE,
+    INITIALISED,
+    NOT_FINITE,
+    NOT_POSITIVE_DEFINITE,
+    OK,
+    OVERFLOW,
+    Q00,
+    Q01,
+    Q11,
+    REJECTED,
+    SINGULAR,
+)
+from slam_env.kernels.linalg import cholesky_in_place
+from slam_env.kernels.models import (
+    innovation,
+    inverse,
+    inverse_jacobian,
+    jacobian,
+    observe,
+    singular,
+    wrap_angle,
+)
+
+# The small matrices of a correction in the workspace (see _correct_group).
+_S, _SK, _L, _LI, _G, _E, _EL, _W, _V, _F = range(10)
+N_SMALL = 10
+
+
+@kernel
+def _finite(a: np.ndarray, count: int) -> bool:
+    """Whether ``a[:count]`` is all finite (a count of the finite entries: an integer
+    sum, which the compiler vectorises where a float test in the loop it would not)."""
+    finite = 0
+    for i in range(count):
+        finite += abs(a[i]) <= FLOAT_MAX
+    return finite == count
+
+
+# --------------------------------------------------------------------------- corrections
+#
+# One correction of m observations stacked (sequential mode: m = 1, at the mean and
+# covariance corrected by the ones before it; batch mode: all of them at once, at the
+# belief before the update). With Cᵀ = H P (2m×d), S = H C + Q = L Lᵀ and the gain
+# K = C G, G = S⁻¹ as computed, the Joseph form is
+#
+#     P⁺ = (I − KH) P (I − KH)ᵀ + K Q Kᵀ = P − K Cᵀ − C Kᵀ + K S Kᵀ = P − Y Yᵀ,
+#
+# Y = C L⁻ᵀ V with V Vᵀ = I − Wᵀ W, W = L⁻¹ E L and E = I − S G the gain's rounding
+# error (V = I when the gain is exact). Why Joseph: the gain is S⁻¹ only up to
+# rounding, and this stays the covariance of the estimate actually made with it,
+# positive semi-definite, with one well-scaled factor. The rows of Yᵀ go to the
+# factor rows U; P itself is not written until the update commits (P ← P − Uᵀ U), and
+# a later observation reads the rows of P its H touches less Σ Uᵀ U of the ones before.
+#
+# Per-observation scratch ``obs`` (D, 13): the two rows of [H_x | H_m], the landmark's
+# first row, the observation's index and whether the gate kept it (as floats); for
+# new landmarks the entries of L and W. ``small`` (10, 2D, 2D): S (later the block
+# between new landmarks), S + Q of the kept ones, L, L⁻¹, G, E, E L, W,
+# I − Wᵀ W (then V), Vᵀ L⁻¹. ``vec`` (2, 2D): ν and G ν.
+
+
+@kernel
+def _add_observation(
+    model: int,
+    xw: np.ndarray,
+    P: np.ndarray,
+    U: np.ndarray,
+    r: int,
+    s: int,
+    z0: float,
+    z1: float,
+    obs: np.ndarray,
+    C: np.ndarray,
+    vec: np.ndarray,
+    m: int,
+    d: int,
+    first: np.ndarray,
+    fej: bool,
+) -> int:
+    """Observation m of a group: the landmark at rows s, s+1 of the mean ``xw``
+    linearised (H into ``obs[m]``, ν into ``vec[0, 2m:2m+2]``) and its rows 2m, 2m+1
+    of Cᵀ = H P at the current covariance P − Σ_{ρ<r} U[ρ]ᵀ U[ρ]. ν is taken at the
+    mean, H there too or, with ``fej``, at the first estimates ``first``.
+    :data:`SINGULAR` where h cannot be linearised. (Rows are indexed, not sliced,
+    here and below: a view of an array costs a reference count.)"""
+    x = xw[0]
+    y = xw[1]
+    th = xw[2]
+    mx = xw[s]
+    my = xw[s + 1]
+    lin = first if fej else xw
+    lx = lin[0]
+    ly = lin[1]
+    lmx = lin[s]
+    lmy = lin[s + 1]
+    if singular(model, x, y, mx, my) or singular(model, lx, ly, lmx, lmy):
+        return SINGULAR
+    zh0, zh1 = observe(model, x, y, th, mx, my)
+    h00, h01, h02, h03, h04, h10, h11, h12, h13, h14 = jacobian(model, lx, ly, lin[2], lmx, lmy)
+    nu0, nu1 = innovation(model, z0, z1, zh0, zh1)
+    total = nu0 + nu1 + h00 + h01 + h02 + h03 + h04 + h10 + h11 + h12 + h13 + h14
+    if not math.isfinite(total):
+        return NOT_FINITE
+    vec[0, 2 * m] = nu0
+    vec[0, 2 * m + 1] = nu1
+    obs[m, 0] = h00
+    obs[m, 1] = h01
+    obs[m, 2] = h02
+    obs[m, 3] = h03
+    obs[m, 4] = h04
+    obs[m, 5] = h10
+    obs[m, 6] = h11
+    obs[m, 7] = h12
+    obs[m, 8] = h13
+    obs[m, 9] = h14
+    obs[m, 10] = s
+    a = 2 * m
+    for c in range(d):
+        p0 = P[0, c]
+        p1 = P[1, c]
+        p2 = P[2, c]
+        ps = P[s, c]
+        pt = P[s + 1, c]
+        C[a, c] = h00 * p0 + h01 * p1 + h02 * p2 + h03 * ps + h04 * pt
+        C[a + 1, c] = h10 * p0 + h11 * p1 + h12 * p2 + h13 * ps + h14 * pt
+    for rho in range(r):
+        w0 = h00 * U[rho, 0] + h01 * U[rho, 1] + h02 * U[rho, 2]
+        w0 += h03 * U[rho, s] + h04 * U[rho, s + 1]
+        w1 = h10 * U[rho, 0] + h11 * U[rho, 1] + h12 * U[rho, 2]
+        w1 += h13 * U[rho, s] + h14 * U[rho, s + 1]
+        for c in range(d):
+            u = U[rho, c]
+            C[a, c] -= w0 * u
+            C[a + 1, c] -= w1 * u
+    return OK
+
+
+@kernel
+def _joseph_factor(small: np.ndarray, m: int) -> bool:
+    """From S + Q in ``small[_SK]`` (m×m): G = S⁻¹ in ``small[_G]`` and the factor
+    Vᵀ L⁻¹ in ``small[_F]`` (S = L Lᵀ, E = I − S G, W = L⁻¹ E L, V Vᵀ = I − Wᵀ W),
+    so that Yᵀ = Vᵀ L⁻¹ Cᵀ. False where S or I − Wᵀ W is not positive definite.
+    Triangular factors are kept with exact zeros above the diagonal, and the sums
+    run over their non-zero parts only."""
+    for i in range(m):
+        for j in range(m):
+            small[_L, i, j] = small[_SK, i, j] if j <= i else 0.0
+    if not cholesky_in_place(small[_L], m):
+        return False
+    for c in range(m):  # L⁻¹, column by column (forward substitution on e_c)
+        for i in range(m):
+            if i < c:
+                small[_LI, i, c] = 0.0
+            else:
+                acc = 1.0 if i == c else 0.0
+                for t in range(c, i):
+                    acc -= small[_L, i, t] * small[_LI, t, c]
+                small[_LI, i, c] = acc / small[_L, i, i]
+    for i in range(m):
+        for j in range(m):
+            acc = 0.0
+            for t in range(max(i, j), m):
+                acc += small[_LI, t, i] * small[_LI, t, j]
+            small[_G, i, j] = acc  # G = L⁻ᵀ L⁻¹
+    for i in range(m):
+        for j in range(m):
+            acc = 1.0 if i == j else 0.0
+            for t in range(m):
+                acc -= small[_SK, i, t] * small[_G, t, j]
+            small[_E, i, j] = acc  # E = I − S G
+    for i in range(m):
+        for j in range(m):
+            acc = 0.0
+            for t in range(j, m):
+                acc += small[_E, i, t] * small[_L, t, j]
+            small[_EL, i, j] = acc  # E L
+    for i in range(m):
+        for j in range(m):
+            acc = 0.0
+            for t in range(i + 1):
+                acc += small[_LI, i, t] * small[_EL, t, j]
+            small[_W, i, j] = acc  # W = L⁻¹ E L
+    for i in range(m):
+        for j in range(m):
+            if j <= i:
+                acc = 1.0 if i == j else 0.0
+                for t in range(m):
+                    acc -= small[_W, t, i] * small[_W, t, j]
+                small[_V, i, j] = acc  # I − Wᵀ W (lower), factorised in place
+            else:
+                small[_V, i, j] = 0.0
+    if not cholesky_in_place(small[_V], m):
+        return False
+    for i in range(m):
+        for j in range(m):
+            acc = 0.0
+            for t in range(max(i, j), m):
+                acc += small[_V, t, i] * small[_LI, t, j]
+            small[_F, i, j] = acc  # Vᵀ L⁻¹
+    return True
+
+
+@kernel
+def _correct_group(
+    xw: np.ndarray,
+    d: int,
+    U: np.ndarray,
+    r: int,
+    C: np.ndarray,
+    obs: np.ndarray,
+    m: int,
+    params: np.ndarray,
+    small: np.ndarray,
+    vec: np.ndarray,
+    status: np.ndarray,
+    nis: np.ndarray,
+) -> tuple[int, int, int]:
+    """Gate and apply m linearised observations (``obs[:m]``, their rows of Cᵀ in
+    ``C[:2m]``, ν in ``vec[0, :2m]``) as one stacked correction. S = H P Hᵀ; each
+    observation is gated on its NIS νᵀS⁻¹ν over its own 2×2 block of S + Q; the kept
+    ones are moved up (their block of S + blockdiag(Q) into ``small[_SK]``, their
+    rows of Cᵀ and ν in place: a target row never passes its source) and applied:
+    the factor rows Yᵀ = Vᵀ L⁻¹ Cᵀ into ``U[r:]``, the mean step x += K ν =
+    (G ν)ᵀ Cᵀ on the working mean ``xw``. Returns (factor rows added, rejected,
+    error code). (A non-finite value in U or the mean is caught before the commit:
+    by the next linearisation, :func:`_factor_check` or the check of the mean.)"""
+    q00 = params[Q00]
+    q01 = params[Q01]
+    q11 = params[Q11]
+    gate = params[GATE]
+    for i in range(2 * m):
+        for b in range(m):
+            sb = int(obs[b, 10])
+            for beta in range(2):
+                o = 5 * beta
+                small[_S, i, 2 * b + beta] = (
+                    C[i, 0] * obs[b, o]
+                    + C[i, 1] * obs[b, o + 1]
+                    + C[i, 2] * obs[b, o + 2]
+                    + C[i, sb] * obs[b, o + 3]
+                    + C[i, sb + 1] * obs[b, o + 4]
+                )
+    for i in range(2 * m):
+        for j in range(i):
+            v = (small[_S, i, j] + small[_S, j, i]) * 0.5  # exactly symmetric
+            small[_S, i, j] = v
+            small[_S, j, i] = v
+    rejected = 0
+    kept = 0
+    for a in range(m):
+        # NIS = |L⁻¹ν|² with S_aa + Q = L Lᵀ.
+        sa = small[_S, 2 * a, 2 * a] + q00
+        sb = small[_S, 2 * a, 2 * a + 1] + q01
+        sc = small[_S, 2 * a + 1, 2 * a + 1] + q11
+        if not math.isfinite(sa + sb + sc):
+            return 0, rejected, NOT_FINITE
+        if not sa > 0.0:
+            return 0, rejected, NOT_POSITIVE_DEFINITE
+        l00 = math.sqrt(sa)
+        l10 = sb / l00
+        v = sc - l10 * l10
+        if not v > 0.0:
+            return 0, rejected, NOT_POSITIVE_DEFINITE
+        w0 = vec[0, 2 * a] / l00
+        w1 = (vec[0, 2 * a + 1] - l10 * w0) / math.sqrt(v)
+        value = w0 * w0 + w1 * w1
+        j = int(obs[a, 11])
+        nis[j] = value
+        if value > gate:
+            status[j] = REJECTED
+            rejected += 1
+            obs[a, 12] = 0.0
+        else:
+            status[j] = CORRECTED
+            obs[a, 12] = 1.0
+            kept += 1
+    ka = 0
+    for a in range(m):
+        if obs[a, 12] == 0.0:
+            continue
+        kb = 0
+        for b in range(m):
+            if obs[b, 12] != 0.0:
+                for alpha in range(2):
+                    for beta in range(2):
+                        small[_SK, 2 * ka + alpha, 2 * kb + beta] = small[
+                            _S, 2 * a + alpha, 2 * b + beta
+                        ]
+                kb += 1
+        small[_SK, 2 * ka, 2 * ka] += q00
+        small[_SK, 2 * ka, 2 * ka + 1] += q01
+        small[_SK, 2 * ka + 1, 2 * ka] += q01
+        small[_SK, 2 * ka + 1, 2 * ka + 1] += q11
+        if ka < a:
+            for alpha in range(2):
+                for c in range(d):
+                    C[2 * ka + alpha, c] = C[2 * a + alpha, c]
+                vec[0, 2 * ka + alpha] = vec[0, 2 * a + alpha]
+        ka += 1
+    if kept == 0:
+        return 0, rejected, OK
+    mm = 2 * kept
+    if not _joseph_factor(small, mm):
+        return 0, rejected, NOT_POSITIVE_DEFINITE
+    for i in range(mm):
+        acc = 0.0
+        for t in range(mm):
+            acc += small[_G, i, t] * vec[0, t]
+        vec[1, i] = acc  # G ν
+    for i in range(mm):
+        coef = small[_F, i, 0]
+        for c in range(d):
+            U[r + i, c] = coef * C[0, c]
+        for t in range(1, mm):
+            coef = small[_F, i, t]
+            for c in range(d):
+                U[r + i, c] += coef * C[t, c]
+    for t in range(mm):
+        coef = vec[1, t]
+        for c in range(d):
+            xw[c] += coef * C[t, c]
+    xw[2] = wrap_angle(xw[2])
+    return mm, rejected, OK
+
+
+@kernel
+def _new_landmarks(
+    xw: np.ndarray,
+    P: np.ndarray,
+    d: int,
+    slot_of: np.ndarray,
+    z: np.ndarray,
+    ids: np.ndarray,
+    k: int,
+    params: np.ndarray,
+    model: int,
+    U: np.ndarray,
+    r: int,
+    PR: np.ndarray,
+    C: np.ndarray,
+    LW: np.ndarray,
+    NB: np.ndarray,
+) -> tuple[int, int]:
+    """The new landmarks (seed 000 §2.2), in the given order, from the corrected
+    belief, without writing P: m = h⁻¹(z, pose) into ``xw[d:]``; with L = ∂h⁻¹/∂pose,
+    W = ∂h⁻¹/∂z, their rows P_m,y = L P_x,y into C (2 rows each; P_x,y the corrected
+    pose rows, P − Uᵀ U, into PR) and the block between them, L P_xx Lᵀ + W Q Wᵀ,
+    into NB (not yet symmetrised). ``LW`` gets (l02, l12, w00, w01, w10, w11) of each.
+    Returns (new landmarks, error code)."""
+    new = 0
+    for j in range(k):
+        if ids[j] >= 0 and slot_of[ids[j]] < 0:
+            new += 1
+    if new == 0:
+        return 0, OK
+    for t in range(3):
+        PRt = PR[t]
+        Pt = P[t]
+        for c in range(d):
+            v = Pt[c]
+            for rho in range(r):
+                v -= U[rho, t] * U[rho, c]
+            PRt[c] = v  # the arithmetic of _apply_factors: the same bits
+    px = xw[0]
+    py = xw[1]
+    pth = xw[2]
+    a = 0
+    for j in range(k):
+        if ids[j] < 0 or slot_of[ids[j]] >= 0:
+            continue
+        mx, my = inverse(model, px, py, pth, z[j, 0], z[j, 1])
+        lw = inverse_jacobian(model, pth, z[j, 0], z[j, 1])
+        for t in range(6):
+            LW[a, t] = lw[t]
+        xw[d + 2 * a] = mx
+        xw[d + 2 * a + 1] = my
+        Ca = C[2 * a]
+        Cb = C[2 * a + 1]
+        for c in range(d):
+            Ca[c] = PR[0, c] + lw[0] * PR[2, c]
+            Cb[c] = PR[1, c] + lw[1] * PR[2, c]
+        if not (_finite(Ca, d) and _finite(Cb, d)):
+            return new, NOT_FINITE
+        a += 1
+    q00 = params[Q00]
+    q01 = params[Q01]
+    q11 = params[Q11]
+    for i in range(2 * new):
+        Ci = C[i]
+        for b in range(new):
+            NB[i, 2 * b] = Ci[0] + Ci[2] * LW[b, 0]
+            NB[i, 2 * b + 1] = Ci[1] + Ci[2] * LW[b, 1]
+    for a in range(new):
+        w00 = LW[a, 2]
+        w01 = LW[a, 3]
+        w10 = LW[a, 4]
+        w11 = LW[a, 5]
+        t00 = w00 * q00 + w01 * q01  # W Q
+        t01 = w00 * q01 + w01 * q11
+        t10 = w10 * q00 + w11 * q01
+        t11 = w10 * q01 + w11 * q11
+        NB[2 * a, 2 * a] += t00 * w00 + t01 * w01
+        NB[2 * a, 2 * a + 1] += t00 * w10 + t01 * w11
+        NB[2 * a + 1, 2 * a] += t10 * w00 + t11 * w01
+        NB[2 * a + 1, 2 * a + 1] += t10 * w10 + t11 * w11
+    for i in range(2 * new):
+        for j in range(2 * new):
+            if not abs(NB[i, j]) <= COV_LIMIT:
+                return new, OVERFLOW
+    return new, OK
+
+
+@kernel
+def _factor_check(U: np.ndarray, r: int, d: int, norms: np.ndarray) -> int:
+    """OK where every (Uᵀ U)ᵢᵢ = Σ_ρ U[ρ, i]² (into ``norms``) is finite and at most
+    COV_LIMIT: then, by Cauchy–Schwarz, so is every entry of Uᵀ U, and P − Uᵀ U
+    cannot overflow. NOT_FINITE for a NaN in U, OVERFLOW otherwise."""
+    for i in range(d):
+        norms[i] = 0.0
+    for rho in range(r):
+        for i in range(d):
+            norms[i] += U[rho, i] * U[rho, i]
+    bounded = 0
+    for i in range(d):
+        bounded += norms[i] <= COV_LIMIT
+    if bounded == d:
+        return OK
+    for i in range(d):
+        if math.isnan(norms[i]):
+            return NOT_FINITE
+    return OVERFLOW
+
+
+@kernel
+def _apply_factors(P: np.ndarray, U: np.ndarray, r: int, d: int) -> None:
+    """P ← P − Uᵀ U on the live block, entry by entry as ((P − u₀u₀) − u₁u₁) − …, so
+    that P[i, j] and P[j, i] see the same operations and P stays exactly symmetric.
+    One pass over P however many corrections the update made (r is even)."""
+    for i in range(d):
+        rho = 0
+        while rho + 4 <= r:
+            c0 = U[rho, i]
+            c1 = U[rho + 1, i]
+            c2 = U[rho + 2, i]
+            c3 = U[rho + 3, i]
+            for j in range(d):
+                v = P[i, j] - c0 * U[rho, j]
+                v -= c1 * U[rho + 1, j]
+                v -= c2 * U[rho + 2, j]
+                P[i, j] = v - c3 * U[rho + 3, j]
+            rho += 4
+        if rho < r:
+            c0 = U[rho, i]
+            c1 = U[rho + 1, i]
+            for j in range(d):
+                P[i, j] = (P[i, j] - c0 * U[rho, j]) - c1 * U[rho + 1, j]
+
+
+@kernel
+def _commit_new(
+    x: np.ndarray,
+    P: np.ndarray,
+    n: int,
+    slot_of: np.ndarray,
+    slot_to_id: np.ndarray,
+    first: np.ndarray,
+    xw: np.ndarray,
+    d: int,
+    C: np.ndarray,
+    NB: np.ndarray,
+    new: int,
+    ids: np.ndarray,
+    k: int,
+    status: np.ndarray,
+) -> None:
+    """Write the working mean and the new landmarks (rows, mirrored columns, the
+    symmetrised block, the ID maps, the first estimates) into the state."""
+    for i in range(d + 2 * new):
+        x[i] = xw[i]
+    for i in range(d, d + 2 * new):
+        first[i] = xw[i]
+    for i in range(2 * new):
+        Ci = C[i]
+        row = P[d + i]
+        for c in range(d):
+            v = Ci[c]
+            row[c] = v
+            P[c, d + i] = v
+        for j in range(2 * new):
+            row[d + j] = (NB[i, j] + NB[j, i]) * 0.5
+    slot = n
+    for j in range(k):
+        lid = ids[j]
+        if lid >= 0 and slot_of[lid] < 0:
+            slot_of[lid] = slot
+            slot_to_id[slot] = lid
+            status[j] = INITIALISED
+            slot += 1
