@@ -77,15 +77,15 @@ from slam_env.kernels.ekf_codes import (
     UNUSED,
 )
 from slam_env.kernels.ekf_correction import (
-    _S,
     N_SMALL,
-    _add_observation,
-    _apply_factors,
-    _commit_new,
-    _correct_group,
-    _factor_check,
-    _finite,
-    _new_landmarks,
+    SMALL_S,
+    add_observation,
+    all_finite,
+    apply_factors,
+    commit_new_landmarks,
+    correct_group,
+    factor_check,
+    new_landmarks,
 )
 from slam_env.kernels.models import ODOMETRY, motion_predict
 
@@ -360,7 +360,7 @@ def update(
                 slot = slot_of[ib[j]]
                 if slot < 0:
                     continue  # a new landmark
-                code = _add_observation(
+                code = add_observation(
                     model, xw, Pb, U, r, 3 + 2 * slot, zb[j, 0], zb[j, 1], obs, C, vec, m, d,
                     fb, fej,
                 )  # fmt: skip
@@ -377,7 +377,7 @@ def update(
                     continue
             if m == 0:
                 continue
-            added, dropped, code = _correct_group(xw, d, U, r, C, obs, m, pb, small, vec, st, ns)
+            added, dropped, code = correct_group(xw, d, U, r, C, obs, m, pb, small, vec, st, ns)
             rejected += dropped
             m = np.int64(0)
             if code != OK:
@@ -385,13 +385,13 @@ def update(
                 break
             r += added
         if err == OK:
-            err = _factor_check(U, r, d, PR[0])
+            err = factor_check(U, r, d, PR[0])
         new = 0
         if err == OK:
-            new, err = _new_landmarks(
-                xw, Pb, d, slot_of, zb, ib, k, pb, model, U, r, PR, C, obs, small[_S]
+            new, err = new_landmarks(
+                xw, Pb, d, slot_of, zb, ib, k, pb, model, U, r, PR, C, obs, small[SMALL_S]
             )
-        if err == OK and not _finite(xw, d + 2 * new):
+        if err == OK and not all_finite(xw, d + 2 * new):
             err = NOT_FINITE
         if err != OK:
             for j in range(D):
@@ -401,9 +401,9 @@ def update(
             continue
         # Commit: nothing above wrote the state.
         if r > 0:
-            _apply_factors(Pb, U, r, d)
-        _commit_new(
-            xb, Pb, n[b], slot_of, slot_to_id[b], fb, xw, d, C, small[_S], new, ib, k, st
+            apply_factors(Pb, U, r, d)
+        commit_new_landmarks(
+            xb, Pb, n[b], slot_of, slot_to_id[b], fb, xw, d, C, small[SMALL_S], new, ib, k, st
         )  # fmt: skip
         n[b] += new
         n_rejected[b] += rejected

@@ -1,11 +1,12 @@
 """The pieces of the batched EKF-SLAM update (:func:`slam_env.kernels.ekf.update`
-puts them together): linearising an observation (:func:`_add_observation`), the
-Joseph-form correction of a group of observations (:func:`_correct_group`, its factor
-:func:`_joseph_factor`), the new landmarks' initialisation (:func:`_new_landmarks`), the
-check and the one application of the deferred covariance factors (:func:`_factor_check`,
-:func:`_apply_factors`) and the commit of the new landmarks (:func:`_commit_new`). None
-of them writes the state but the last two, which run only once everything is checked.
-The codes they return are those of :mod:`.ekf_codes`."""
+puts them together): linearising an observation (:func:`add_observation`), the
+Joseph-form correction of a group of observations (:func:`correct_group`, its factor
+:func:`_joseph_factor`), the new landmarks' initialisation (:func:`new_landmarks`),
+the check and the one application of the deferred covariance factors
+(:func:`factor_check`, :func:`apply_factors`) and the commit of the new landmarks
+(:func:`commit_new_landmarks`). None of them writes the state but the last two, which
+run only once everything is checked. The codes they return are those of
+:mod:`.ekf_codes`."""
 
 from __future__ import annotations
 
@@ -41,13 +42,15 @@ from slam_env.kernels.models import (
     wrap_angle,
 )
 
-# The small matrices of a correction in the workspace (see _correct_group).
-_S, _SK, _L, _LI, _G, _E, _EL, _W, _V, _F = range(10)
+# The small matrices of a correction in the workspace (see correct_group).
+SMALL_S, SMALL_SK, SMALL_L, SMALL_LI, SMALL_G, SMALL_E, SMALL_EL, SMALL_W, SMALL_V, SMALL_F = range(
+    10
+)
 N_SMALL = 10
 
 
 @kernel
-def _finite(a: np.ndarray, count: int) -> bool:
+def all_finite(a: np.ndarray, count: int) -> bool:
     """Whether ``a[:count]`` is all finite (a count of the finite entries: an integer
     sum, which the compiler vectorises where a float test in the loop it would not)."""
     finite = 0
@@ -80,7 +83,7 @@ def _finite(a: np.ndarray, count: int) -> bool:
 
 
 @kernel
-def _add_observation(
+def add_observation(
     model: int,
     xw: np.ndarray,
     P: np.ndarray,
@@ -157,71 +160,71 @@ def _add_observation(
 
 @kernel
 def _joseph_factor(small: np.ndarray, m: int) -> bool:
-    """From S + Q in ``small[_SK]`` (m×m): G = S⁻¹ in ``small[_G]`` and the factor
-    Vᵀ L⁻¹ in ``small[_F]`` (S = L Lᵀ, E = I − S G, W = L⁻¹ E L, V Vᵀ = I − Wᵀ W),
+    """From S + Q in ``small[SMALL_SK]`` (m×m): G = S⁻¹ in ``small[SMALL_G]`` and the factor
+    Vᵀ L⁻¹ in ``small[SMALL_F]`` (S = L Lᵀ, E = I − S G, W = L⁻¹ E L, V Vᵀ = I − Wᵀ W),
     so that Yᵀ = Vᵀ L⁻¹ Cᵀ. False where S or I − Wᵀ W is not positive definite.
     Triangular factors are kept with exact zeros above the diagonal, and the sums
     run over their non-zero parts only."""
     for i in range(m):
         for j in range(m):
-            small[_L, i, j] = small[_SK, i, j] if j <= i else 0.0
-    if not cholesky_in_place(small[_L], m):
+            small[SMALL_L, i, j] = small[SMALL_SK, i, j] if j <= i else 0.0
+    if not cholesky_in_place(small[SMALL_L], m):
         return False
     for c in range(m):  # L⁻¹, column by column (forward substitution on e_c)
         for i in range(m):
             if i < c:
-                small[_LI, i, c] = 0.0
+                small[SMALL_LI, i, c] = 0.0
             else:
                 acc = 1.0 if i == c else 0.0
                 for t in range(c, i):
-                    acc -= small[_L, i, t] * small[_LI, t, c]
-                small[_LI, i, c] = acc / small[_L, i, i]
+                    acc -= small[SMALL_L, i, t] * small[SMALL_LI, t, c]
+                small[SMALL_LI, i, c] = acc / small[SMALL_L, i, i]
     for i in range(m):
         for j in range(m):
             acc = 0.0
             for t in range(max(i, j), m):
-                acc += small[_LI, t, i] * small[_LI, t, j]
-            small[_G, i, j] = acc  # G = L⁻ᵀ L⁻¹
+                acc += small[SMALL_LI, t, i] * small[SMALL_LI, t, j]
+            small[SMALL_G, i, j] = acc  # G = L⁻ᵀ L⁻¹
     for i in range(m):
         for j in range(m):
             acc = 1.0 if i == j else 0.0
             for t in range(m):
-                acc -= small[_SK, i, t] * small[_G, t, j]
-            small[_E, i, j] = acc  # E = I − S G
+                acc -= small[SMALL_SK, i, t] * small[SMALL_G, t, j]
+            small[SMALL_E, i, j] = acc  # E = I − S G
     for i in range(m):
         for j in range(m):
             acc = 0.0
             for t in range(j, m):
-                acc += small[_E, i, t] * small[_L, t, j]
-            small[_EL, i, j] = acc  # E L
+                acc += small[SMALL_E, i, t] * small[SMALL_L, t, j]
+            small[SMALL_EL, i, j] = acc  # E L
     for i in range(m):
         for j in range(m):
             acc = 0.0
             for t in range(i + 1):
-                acc += small[_LI, i, t] * small[_EL, t, j]
-            small[_W, i, j] = acc  # W = L⁻¹ E L
+                acc += small[SMALL_LI, i, t] * small[SMALL_EL, t, j]
+            small[SMALL_W, i, j] = acc  # W = L⁻¹ E L
     for i in range(m):
         for j in range(m):
             if j <= i:
                 acc = 1.0 if i == j else 0.0
                 for t in range(m):
-                    acc -= small[_W, t, i] * small[_W, t, j]
-                small[_V, i, j] = acc  # I − Wᵀ W (lower), factorised in place
+                    acc -= small[SMALL_W, t, i] * small[SMALL_W, t, j]
+                small[SMALL_V, i, j] = acc  # I − Wᵀ W (lower), factorised in place
             else:
-                small[_V, i, j] = 0.0
-    if not cholesky_in_place(small[_V], m):
+                small[SMALL_V, i, j] = 0.0
+    if not cholesky_in_place(small[SMALL_V], m):
         return False
     for i in range(m):
         for j in range(m):
             acc = 0.0
             for t in range(max(i, j), m):
-                acc += small[_V, t, i] * small[_LI, t, j]
-            small[_F, i, j] = acc  # Vᵀ L⁻¹
+                acc += small[SMALL_V, t, i] * small[SMALL_LI, t, j]
+            small[SMALL_F, i, j] = acc  # Vᵀ L⁻¹
     return True
 
 
 @kernel
-def _correct_group(
+def correct_group(
     xw: np.ndarray,
     d: int,
     U: np.ndarray,
@@ -238,12 +241,12 @@ def _correct_group(
     """Gate and apply m linearised observations (``obs[:m]``, their rows of Cᵀ in
     ``C[:2m]``, ν in ``vec[0, :2m]``) as one stacked correction. S = H P Hᵀ; each
     observation is gated on its NIS νᵀS⁻¹ν over its own 2×2 block of S + Q; the kept
-    ones are moved up (their block of S + blockdiag(Q) into ``small[_SK]``, their
+    ones are moved up (their block of S + blockdiag(Q) into ``small[SMALL_SK]``, their
     rows of Cᵀ and ν in place: a target row never passes its source) and applied:
     the factor rows Yᵀ = Vᵀ L⁻¹ Cᵀ into ``U[r:]``, the mean step x += K ν =
     (G ν)ᵀ Cᵀ on the working mean ``xw``. Returns (factor rows added, rejected,
     error code). (A non-finite value in U or the mean is caught before the commit:
-    by the next linearisation, :func:`_factor_check` or the check of the mean.)"""
+    by the next linearisation, :func:`factor_check` or the check of the mean.)"""
     q00 = params[Q00]
     q01 = params[Q01]
     q11 = params[Q11]
@@ -253,7 +256,7 @@ def _correct_group(
             sb = int(obs[b, 10])
             for beta in range(2):
                 o = 5 * beta
-                small[_S, i, 2 * b + beta] = (
+                small[SMALL_S, i, 2 * b + beta] = (
                     C[i, 0] * obs[b, o]
                     + C[i, 1] * obs[b, o + 1]
                     + C[i, 2] * obs[b, o + 2]
@@ -262,16 +265,16 @@ def _correct_group(
                 )
     for i in range(2 * m):
         for j in range(i):
-            v = (small[_S, i, j] + small[_S, j, i]) * 0.5  # exactly symmetric
-            small[_S, i, j] = v
-            small[_S, j, i] = v
+            v = (small[SMALL_S, i, j] + small[SMALL_S, j, i]) * 0.5  # exactly symmetric
+            small[SMALL_S, i, j] = v
+            small[SMALL_S, j, i] = v
     rejected = 0
     kept = 0
     for a in range(m):
         # NIS = |L⁻¹ν|² with S_aa + Q = L Lᵀ.
-        sa = small[_S, 2 * a, 2 * a] + q00
-        sb = small[_S, 2 * a, 2 * a + 1] + q01
-        sc = small[_S, 2 * a + 1, 2 * a + 1] + q11
+        sa = small[SMALL_S, 2 * a, 2 * a] + q00
+        sb = small[SMALL_S, 2 * a, 2 * a + 1] + q01
+        sc = small[SMALL_S, 2 * a + 1, 2 * a + 1] + q11
         if not math.isfinite(sa + sb + sc):
             return 0, rejected, NOT_FINITE
         if not sa > 0.0:
@@ -303,14 +306,14 @@ def _correct_group(
             if obs[b, 12] != 0.0:
                 for alpha in range(2):
                     for beta in range(2):
-                        small[_SK, 2 * ka + alpha, 2 * kb + beta] = small[
-                            _S, 2 * a + alpha, 2 * b + beta
+                        small[SMALL_SK, 2 * ka + alpha, 2 * kb + beta] = small[
+                            SMALL_S, 2 * a + alpha, 2 * b + beta
                         ]
                 kb += 1
-        small[_SK, 2 * ka, 2 * ka] += q00
-        small[_SK, 2 * ka, 2 * ka + 1] += q01
-        small[_SK, 2 * ka + 1, 2 * ka] += q01
-        small[_SK, 2 * ka + 1, 2 * ka + 1] += q11
+        small[SMALL_SK, 2 * ka, 2 * ka] += q00
+        small[SMALL_SK, 2 * ka, 2 * ka + 1] += q01
+        small[SMALL_SK, 2 * ka + 1, 2 * ka] += q01
+        small[SMALL_SK, 2 * ka + 1, 2 * ka + 1] += q11
         if ka < a:
             for alpha in range(2):
                 for c in range(d):
@@ -325,14 +328,14 @@ def _correct_group(
     for i in range(mm):
         acc = 0.0
         for t in range(mm):
-            acc += small[_G, i, t] * vec[0, t]
+            acc += small[SMALL_G, i, t] * vec[0, t]
         vec[1, i] = acc  # G ν
     for i in range(mm):
-        coef = small[_F, i, 0]
+        coef = small[SMALL_F, i, 0]
         for c in range(d):
             U[r + i, c] = coef * C[0, c]
         for t in range(1, mm):
-            coef = small[_F, i, t]
+            coef = small[SMALL_F, i, t]
             for c in range(d):
                 U[r + i, c] += coef * C[t, c]
     for t in range(mm):
@@ -344,7 +347,7 @@ def _correct_group(
 
 
 @kernel
-def _new_landmarks(
+def new_landmarks(
     xw: np.ndarray,
     P: np.ndarray,
     d: int,
@@ -380,7 +383,7 @@ def _new_landmarks(
             v = Pt[c]
             for rho in range(r):
                 v -= U[rho, t] * U[rho, c]
-            PRt[c] = v  # the arithmetic of _apply_factors: the same bits
+            PRt[c] = v  # the arithmetic of apply_factors: the same bits
     px = xw[0]
     py = xw[1]
     pth = xw[2]
@@ -399,7 +402,7 @@ def _new_landmarks(
         for c in range(d):
             Ca[c] = PR[0, c] + lw[0] * PR[2, c]
             Cb[c] = PR[1, c] + lw[1] * PR[2, c]
-        if not (_finite(Ca, d) and _finite(Cb, d)):
+        if not (all_finite(Ca, d) and all_finite(Cb, d)):
             return new, NOT_FINITE
         a += 1
     q00 = params[Q00]
@@ -431,7 +434,7 @@ def _new_landmarks(
 
 
 @kernel
-def _factor_check(U: np.ndarray, r: int, d: int, norms: np.ndarray) -> int:
+def factor_check(U: np.ndarray, r: int, d: int, norms: np.ndarray) -> int:
     """OK where every (Uᵀ U)ᵢᵢ = Σ_ρ U[ρ, i]² (into ``norms``) is finite and at most
     COV_LIMIT: then, by Cauchy–Schwarz, so is every entry of Uᵀ U, and P − Uᵀ U
     cannot overflow. NOT_FINITE for a NaN in U, OVERFLOW otherwise."""
@@ -452,7 +455,7 @@ def _factor_check(U: np.ndarray, r: int, d: int, norms: np.ndarray) -> int:
 
 
 @kernel
-def _apply_factors(P: np.ndarray, U: np.ndarray, r: int, d: int) -> None:
+def apply_factors(P: np.ndarray, U: np.ndarray, r: int, d: int) -> None:
     """P ← P − Uᵀ U on the live block, entry by entry as ((P − u₀u₀) − u₁u₁) − …, so
     that P[i, j] and P[j, i] see the same operations and P stays exactly symmetric.
     One pass over P however many corrections the update made (r is even)."""
@@ -477,7 +480,7 @@ def _apply_factors(P: np.ndarray, U: np.ndarray, r: int, d: int) -> None:
 
 
 @kernel
-def _commit_new(
+def commit_new_landmarks(
     x: np.ndarray,
     P: np.ndarray,
     n: int,
