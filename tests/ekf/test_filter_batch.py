@@ -13,6 +13,9 @@ import pytest
 from slam_env.ekf import EKFSLAM
 from slam_env.ekf.batch import FilterBatch
 from slam_env.ekf.models import MEASUREMENT_MODELS, MOTION_MODELS
+from slam_env.kernels.association import association_workspace_sizes
+from slam_env.kernels.correction import workspaces_fit
+from slam_env.kernels.ekf import update_workspace_size
 
 Q = np.diag([0.03**2, math.radians(0.5) ** 2])
 
@@ -64,3 +67,24 @@ def test_each_row_is_the_single_filter_as_the_updates_grow(association):
             np.testing.assert_array_equal(batch.filter(b).mean, singles[b].mean)
             np.testing.assert_array_equal(batch.filter(b).cov, singles[b].cov)
     assert largest == M and batch._room == M
+
+
+def test_a_correction_needs_each_of_its_workspaces_to_fit() -> None:
+    """The update's scratch and, where the filters associate, both of the
+    association's: one too small refuses the call."""
+    m, k, d = 5, 3, 4
+    dmax = 3 + 2 * m
+    counts, mask = np.array([k]), np.ones(1, dtype=bool)
+    floats, ints = association_workspace_sizes(m, k)
+    update_size = update_workspace_size(dmax, k)
+
+    def fits(update: int, f: int, i: int, associates: bool) -> bool:
+        spaces = (np.empty(update), np.empty(f), np.empty(i, dtype=np.int64))
+        return workspaces_fit(dmax, counts, mask, d, spaces, associates)
+
+    assert fits(update_size, floats, ints, True)
+    assert not fits(update_size, floats - 1, ints, True)
+    assert not fits(update_size, floats, ints - 1, True)
+    assert not fits(update_size - 1, floats, ints, True)
+    assert fits(update_size, 0, 0, False)
+    assert not fits(update_size - 1, 0, 0, False)
