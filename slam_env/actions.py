@@ -72,10 +72,11 @@ _PRIMITIVES = np.array(DISCRETE_PRIMITIVES, dtype=np.float64)
 
 def parse_actions(
     actions: Any, single_space: spaces.Space, num_envs: int, active: np.ndarray
-) -> tuple[list[float], list[float]]:
-    """:func:`parse_action` for the actions of ``num_envs`` sub-envs at once: lists of
-    the speed and turn fractions, in [−1, 1]. Only the ``active`` (B,) rows need be
-    valid numbers, as only they are stepped (the others are being reset)."""
+) -> np.ndarray:
+    """:func:`parse_action` for the actions of ``num_envs`` sub-envs at once: a fresh
+    (B, 2) float64 array of the speed and turn fractions, in [−1, 1]. Only the
+    ``active`` (B,) rows need be valid numbers, as only they are stepped (the others
+    are being reset)."""
     if isinstance(single_space, spaces.Discrete):
         arr = np.asarray(actions)
         if arr.shape != (num_envs,) or not np.issubdtype(arr.dtype, np.integer):
@@ -89,8 +90,7 @@ def parse_actions(
                 f"discrete actions must be in [0, {len(DISCRETE_PRIMITIVES)}), got "
                 f"{arr[bad].tolist()} for sub-envs {np.flatnonzero(bad).tolist()}"
             )
-        chosen = _PRIMITIVES[np.where(active, arr, 0)]
-        return chosen[:, 0].tolist(), chosen[:, 1].tolist()
+        return _PRIMITIVES[np.where(active, arr, 0)]
     try:
         arr = np.asarray(actions, dtype=np.float64)
     except (TypeError, ValueError) as exc:
@@ -103,5 +103,4 @@ def parse_actions(
     if not finite[active].all():
         bad = np.flatnonzero(active & ~finite)
         raise ValueError(f"actions must be finite; sub-envs {bad.tolist()} are {arr[bad]}")
-    clipped = np.clip(np.where(finite[:, None], arr, 0.0), -1.0, 1.0)
-    return clipped[:, 0].tolist(), clipped[:, 1].tolist()
+    return np.clip(np.where(finite[:, None], arr, 0.0), -1.0, 1.0)

@@ -168,22 +168,19 @@ class ActiveCore(BatchCore):
         return self.raw.rngs
 
     @property
-    def _idle(self) -> list[float]:
+    def _idle(self) -> np.ndarray:
         return self.raw._idle
 
     def advance(
-        self,
-        speed: list[float],
-        turn: list[float],
-        stepping: np.ndarray,
-        resetting: Sequence[int],
+        self, commands: np.ndarray, stepping: np.ndarray, resetting: Sequence[int]
     ) -> list[Layout]:
-        """Step the sub-envs of ``stepping`` and start a new episode for those listed
-        in ``resetting``, in the same kernel calls (see :meth:`RawCore.advance`). A
-        new episode's filter starts at the true start pose and folds in the first
-        scan; its reward is 0, and the next step's gains are measured from it."""
+        """Step the sub-envs of ``stepping`` by their ``commands`` and start a new
+        episode for those listed in ``resetting``, in the same kernel calls (see
+        :meth:`RawCore.advance`). A new episode's filter starts at the true start pose
+        and folds in the first scan; its reward is 0, and the next step's gains are
+        measured from it."""
         raw, filters = self.raw, self.filters
-        layouts = raw.advance(speed, turn, stepping, resetting)
+        layouts = raw.advance(commands, stepping, resetting)
         touched = stepping.copy()
         worlds = raw.worlds
         for b in resetting:

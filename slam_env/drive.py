@@ -14,9 +14,10 @@ from slam_env.kernels.motion import drive
 class Drive:
     """Drives B robots of ``radius`` (m) for ``dt`` s in at least ``substeps`` moves.
 
-    Set :attr:`commands` ((B, 2): speed m/s, turn rate rad/s), then call; the robots the
-    kernel flags are listed for the caller to settle with clearance queries along
-    ``moves[b, :counts[b]]`` from ``reaches[b]`` (see
+    Call with the commands ((B, 2): speed m/s, turn rate rad/s; :attr:`commands` is a
+    buffer for callers without their own); the robots the kernel flags are listed for
+    the caller to settle with clearance queries along ``moves[b, :counts[b]]`` from
+    ``reaches[b]`` (see
     :func:`~slam_env.kernels.motion.drive`). The moves buffer starts at ``substeps`` rows
     and grows for fast commands up to :data:`~slam_env.budget.MAX_MOVES_PER_STEP` (or
     ``substeps``, if more); a command that needs more is refused.
@@ -33,13 +34,19 @@ class Drive:
         self.reaches = np.zeros(num_envs)
 
     def __call__(
-        self, poses: np.ndarray, disks: np.ndarray, active: np.ndarray, blocked: np.ndarray
+        self,
+        poses: np.ndarray,
+        disks: np.ndarray,
+        commands: np.ndarray,
+        active: np.ndarray,
+        blocked: np.ndarray,
     ) -> list[int]:
         """Move the ``active`` ((B,) bool) robots of ``poses`` ((B, 3), in place) with
-        clear disks ``disks`` ((B, 3)); ``blocked[b]`` ((B,) bool) becomes False for each.
+        clear disks ``disks`` ((B, 3)) by ``commands`` ((B, 2) float64); ``blocked[b]``
+        ((B,) bool) becomes False for each.
         Returns the flagged robots, whose positions the caller settles. ``ValueError``,
         with nothing moved, if a speed would take more than :attr:`max_moves` moves."""
-        commands, radius, dt, substeps = self.commands, self.radius, self.dt, self.substeps
+        radius, dt, substeps = self.radius, self.dt, self.substeps
         counts, reaches = self.counts, self.reaches
         flagged = drive(
             poses, disks, commands, active, radius, dt, substeps, self.moves, counts, reaches,

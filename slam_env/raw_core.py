@@ -95,22 +95,22 @@ class BatchCore:
     and a step of some sub-envs."""
 
     rngs: list[np.random.Generator | None]
-    _idle: list[float]  # the speeds and turn rates of sub-envs that only reset
+    _idle: np.ndarray  # (B, 2) zeros: the commands of sub-envs that only reset
     _none: np.ndarray  # (B,) False: no sub-env steps
 
     def advance(
-        self, speed: list[float], turn: list[float], stepping: np.ndarray, resetting: Sequence[int]
+        self, commands: np.ndarray, stepping: np.ndarray, resetting: Sequence[int]
     ) -> list[Layout]:
         raise NotImplementedError
 
     def reset(self, index: int, rng: np.random.Generator) -> Layout:
         """Start sub-env ``index`` on a new episode, its randomness from ``rng``."""
         self.rngs[index] = rng
-        return self.advance(self._idle, self._idle, self._none, [index])[0]
+        return self.advance(self._idle, self._none, [index])[0]
 
-    def step(self, speed: list[float], turn: list[float], active: np.ndarray) -> None:
+    def step(self, commands: np.ndarray, active: np.ndarray) -> None:
         """One step of the active sub-envs (see :meth:`advance`)."""
-        self.advance(speed, turn, active, ())
+        self.advance(commands, active, ())
 
 
 class RawCore(BatchCore):
@@ -205,7 +205,7 @@ class RawCore(BatchCore):
         )
         self.terminated = np.zeros(b, dtype=bool)
         self._none = np.zeros(b, dtype=bool)
-        self._idle = [0.0] * b  # the speeds and turn rates of robots that do not move
+        self._idle = np.zeros((b, 2))  # the commands of robots that do not move
         # The kernels' grouped arguments as plain tuples (see slam_env.kernels).
         self._sensor_fields = tuple(self._sensor)
         self._fault_fields = tuple(self._faults)
@@ -214,19 +214,15 @@ class RawCore(BatchCore):
 
     # ------------------------------------------------------------------ stepping
     def advance(
-        self,
-        speed: list[float],
-        turn: list[float],
-        stepping: np.ndarray,
-        resetting: Sequence[int],
+        self, commands: np.ndarray, stepping: np.ndarray, resetting: Sequence[int]
     ) -> list[Layout]:
-        """Step the sub-envs of ``stepping`` ((B,) bool; robot b driven at ``speed[b]``
-        m/s and ``turn[b]`` rad/s, lists of B Python floats) and start a new episode for
+        """Step the sub-envs of ``stepping`` ((B,) bool; robot b driven by
+        ``commands[b]``, (B, 2) float64: speed m/s, turn rate rad/s) and start a new episode for
         those listed in ``resetting`` (their generators already in :attr:`rngs`), in the
         same kernel calls. A reset scan has no faults and pays nothing. Returns the new
         episodes' layouts, in the order of ``resetting``."""
         worlds = self.worlds
-        before = worlds.move(speed, turn, stepping, self.collided)
+        before = worlds.move(commands, stepping, self.collided)
         touched = stepping.copy()
         layouts = []
         for b in resetting:

@@ -52,6 +52,7 @@ class CoreEnv(gym.Env):
             self.action_space = spaces.Discrete(len(DISCRETE_PRIMITIVES))
         self.observation_space = core.observation_space
         self._active = np.ones(1, dtype=bool)
+        self._command = np.zeros((1, 2))
         self._started = False
         self._renderer = None
         self._trail: list[tuple[float, float]] = []
@@ -82,7 +83,10 @@ class CoreEnv(gym.Env):
         speed_frac, turn_frac = parse_action(action, self.action_space)
         core = self._core
         core.rngs[0] = self.np_random  # whoever set env.np_random since the reset
-        core.step([speed_frac * self._max_speed], [turn_frac * self._max_turn_rate], self._active)
+        command = self._command  # (1, 2): speed m/s, turn rate rad/s
+        command[0, 0] = speed_frac * self._max_speed
+        command[0, 1] = turn_frac * self._max_turn_rate
+        core.step(command, self._active)
         self._steps += 1
         obs, info = core.observation(0), core.info(0)
         self._remember(info)

@@ -129,14 +129,14 @@ class SlamVectorEnv(VectorEnv):
         else:
             self.single_action_space = spaces.Discrete(len(DISCRETE_PRIMITIVES))
         self.action_space = batch_space(self.single_action_space, self.num_envs)
-        self._max_speed = self.config.robot.max_speed
-        self._max_turn_rate = self.config.robot.max_turn_rate
+        robot = self.config.robot
+        self._max_command = np.array([robot.max_speed, robot.max_turn_rate])
         b = self.num_envs
         self._elapsed = np.zeros(b, dtype=np.int64)
         self._autoreset = np.zeros(b, dtype=bool)
         self._started = False
         self._all = np.ones(b, dtype=bool)
-        self._idle = [0.0] * b  # the speeds and turn rates of sub-envs that only reset
+        self._idle = np.zeros((b, 2))  # the commands of sub-envs that only reset
         self._trails: list[list[tuple[float, float]]] = [[] for _ in range(b)]
         self._renderers: list[Any] = [None] * b
 
@@ -157,7 +157,7 @@ class SlamVectorEnv(VectorEnv):
             if s is not None or rngs[b] is None:
                 rngs[b], _ = seeding.np_random(s)
         everyone = list(range(self.num_envs))
-        self.core.advance(self._idle, self._idle, ~self._all, everyone)
+        self.core.advance(self._idle, ~self._all, everyone)
         self._finish_resets(everyone)
         self._autoreset[:] = False
         self._started = True
@@ -195,14 +195,12 @@ class SlamVectorEnv(VectorEnv):
         core = self.core
         resetting = self._autoreset
         active = ~resetting
-        speed, turn = parse_actions(actions, self.single_action_space, self.num_envs, active)
-        max_speed, max_turn = self._max_speed, self._max_turn_rate
-        speed = [s * max_speed for s in speed]
-        turn = [t * max_turn for t in turn]
+        fractions = parse_actions(actions, self.single_action_space, self.num_envs, active)
+        commands = fractions * self._max_command  # speed m/s, turn rate rad/s
         next_step = self.metadata["autoreset_mode"] == AutoresetMode.NEXT_STEP
         # NEXT_STEP: the sub-envs that ended last step start anew in this step's calls.
         starting = np.flatnonzero(resetting).tolist() if next_step else []
-        core.advance(speed, turn, active, starting)
+        core.advance(commands, active, starting)
         self._elapsed += active
         terminated = core.terminated & active
         truncated = np.zeros(self.num_envs, dtype=bool)
@@ -221,7 +219,7 @@ class SlamVectorEnv(VectorEnv):
         elif done.any():  # SAME_STEP: the ended sub-envs start anew now
             final = self._final(done)
             ended = np.flatnonzero(done).tolist()
-            core.advance(self._idle, self._idle, ~self._all, ended)
+            core.advance(self._idle, ~self._all, ended)
             self._finish_resets(ended)
         infos = with_masks(*self._infos())
         if final is not None:

@@ -243,9 +243,10 @@ class World:
         if not (math.isfinite(v) and math.isfinite(omega)):
             raise ValueError(f"step needs finite v and omega, got ({v}, {omega})")
         drive = self._drive
-        drive.commands[0, 0] = v
-        drive.commands[0, 1] = omega
-        if drive(self._pose, self._disk, np.ones(1, dtype=bool), np.zeros(1, dtype=bool)):
+        commands = drive.commands
+        commands[0, 0] = v
+        commands[0, 1] = omega
+        if drive(self._pose, self._disk, commands, np.ones(1, dtype=bool), np.zeros(1, dtype=bool)):
             return self._settle(drive.moves[0, : drive.counts[0]], float(drive.reaches[0]))
         return False
 

@@ -74,18 +74,13 @@ class WorldBatch:
         self.geometry = set_world(self.geometry, index, layout, cfg.world.wall_thickness)
         return layout
 
-    def move(
-        self, speed: list[float], turn: list[float], active: np.ndarray, collided: np.ndarray
-    ) -> np.ndarray:
-        """Drive each ``active`` ((B,) bool) robot at ``speed`` m/s and ``turn`` rad/s
-        (lists of B finite floats) for one step, its collision flag into ``collided``
-        (B,). Returns the poses before the step."""
+    def move(self, commands: np.ndarray, active: np.ndarray, collided: np.ndarray) -> np.ndarray:
+        """Drive each ``active`` ((B,) bool) robot by its row of ``commands`` ((B, 2)
+        float64, finite: speed m/s, turn rate rad/s) for one step, its collision flag
+        into ``collided`` (B,). Returns the poses before the step."""
         before = self.poses.copy()
         drive = self._drive
-        commands = drive.commands
-        commands[:, 0] = speed
-        commands[:, 1] = turn
-        flagged = drive(self.poses, self.disks, active, collided)
+        flagged = drive(self.poses, self.disks, commands, active, collided)
         if flagged:
             worlds, moves, counts, reaches = self.worlds, drive.moves, drive.counts, drive.reaches
             for b in flagged:

@@ -34,12 +34,12 @@ def batch_and_twins(config: EnvConfig) -> tuple[WorldBatch, list[World]]:
     return batch, twins
 
 
-def commands(rng: np.random.Generator, config: EnvConfig) -> tuple[list[float], list[float]]:
-    """Mostly full speed ahead (so that robots press into things), some reversing,
-    turning in place and standing still."""
+def commands(rng: np.random.Generator, config: EnvConfig) -> np.ndarray:
+    """(B, 2) speeds and turn rates: mostly full speed ahead (so that robots press into
+    things), some reversing, turning in place and standing still."""
     speed = rng.choice([1.0, 1.0, 1.0, -0.6, 0.0], B) * config.robot.max_speed
     turn = rng.uniform(-1.0, 1.0, B) * config.robot.max_turn_rate
-    return speed.tolist(), turn.tolist()
+    return np.column_stack([speed, turn])
 
 
 @pytest.mark.parametrize("preset", ["random", "cluttered", "rooms"])
@@ -50,13 +50,14 @@ def test_moving_the_batch_is_stepping_each_world(preset) -> None:
     collided = np.zeros(B, dtype=bool)
     n_collisions = 0
     for i in range(300):
-        speed, turn = commands(rng, config)
+        command = commands(rng, config)
         active = rng.random(B) < 0.9
         collided[:] = False
-        before = batch.move(speed, turn, active, collided)
+        before = batch.move(command, active, collided)
         for b, twin in enumerate(twins):
             if active[b]:
-                assert collided[b] == twin.step(speed[b], turn[b]), (i, b)
+                speed, turn = command[b].tolist()
+                assert collided[b] == twin.step(speed, turn), (i, b)
             assert batch.poses[b].tolist() == list(twin.pose) == list(batch.worlds[b].pose)
         assert not np.shares_memory(before, batch.poses)
         n_collisions += int(collided.sum())
@@ -71,12 +72,12 @@ def test_a_copied_batch_moves_its_own_worlds(how) -> None:
     active = np.ones(B, dtype=bool)
     collided = np.zeros(B, dtype=bool)
     for _ in range(20):
-        batch.move(*commands(rng, config), active, collided)
+        batch.move(commands(rng, config), active, collided)
     clone = pickle.loads(pickle.dumps(batch)) if how == "pickle" else copy.deepcopy(batch)
     for _ in range(20):
-        speed, turn = commands(rng, config)
-        batch.move(speed, turn, active, collided)
-        clone.move(speed, turn, active, collided.copy())
+        command = commands(rng, config)
+        batch.move(command, active, collided)
+        clone.move(command, active, collided.copy())
     np.testing.assert_array_equal(clone.poses, batch.poses)
     for b in range(B):
         assert list(clone.worlds[b].pose) == clone.poses[b].tolist()
@@ -97,10 +98,11 @@ def test_a_speed_beyond_the_move_budget_is_refused_with_nothing_moved() -> None:
     batch, twins = batch_and_twins(config)
     poses = batch.poses.copy()
     collided = np.ones(B, dtype=bool)
-    speed = [0.5] * B
-    speed[4] = 1e6
+    command = np.zeros((B, 2))
+    command[:, 0] = 0.5
+    command[4, 0] = 1e6
     with pytest.raises(ValueError, match="too fast"):
-        batch.move(speed, [0.0] * B, np.ones(B, dtype=bool), collided)
+        batch.move(command, np.ones(B, dtype=bool), collided)
     np.testing.assert_array_equal(batch.poses, poses)
     assert collided.all()
     world = twins[0]
