@@ -5,6 +5,7 @@ the README lists every limit."""
 
 from __future__ import annotations
 
+import importlib
 import math
 import re
 import tracemalloc
@@ -89,13 +90,15 @@ def nothing_is_built(monkeypatch):
     def forbidden(*args, **kwargs):
         raise AssertionError("built before the budget was checked")
 
+    # Every module that binds these names is imported before they are patched: one first
+    # imported under the patches would keep a fake after them (and fail later tests).
+    importlib.import_module("slam_env.vector")  # the envs and both cores
     monkeypatch.setattr("slam_env.world_batch.layout_for", forbidden)
     monkeypatch.setattr("slam_env.world_batch.World", forbidden)
     monkeypatch.setattr("slam_env.layouts.Layout.validate", forbidden)
     monkeypatch.setattr("slam_env.wrappers.EKFSLAM", forbidden)
     monkeypatch.setattr("slam_env.coverage.CoverageGrid", forbidden)
-    # ActiveSLAM-v0 builds its grid under the name it imported (patched here, not
-    # captured: a first import of the env under this fixture would keep the fake).
+    # ActiveSLAM-v0 builds its grid under the name it imported.
     monkeypatch.setattr("slam_env.active_core.CoverageGrid", forbidden)
 
 
