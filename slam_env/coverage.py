@@ -205,10 +205,6 @@ class CoverageGrid:
         """Share of the arena's cells swept so far (world 0)."""
         return self._n_swept[0].item() / self.size
 
-    def swept_fractions(self) -> np.ndarray:
-        """(worlds,) float64: each world's share of the arena swept so far."""
-        return self._n_swept / self.size
-
     def reset(self, index: int = 0) -> None:
         """Forget everything world ``index`` swept."""
         p = self.tables.pad

@@ -10,7 +10,7 @@ import numpy as np
 from slam_env.ekf.chi2 import joint_gates
 from slam_env.ekf.filter import EKFSLAM
 from slam_env.kernels import association, ekf
-from slam_env.kernels.correction import correct
+from slam_env.kernels.correction import correct, correction_workspaces
 
 
 class FilterBatch:
@@ -73,19 +73,11 @@ class FilterBatch:
         self._views: dict[int, EKFSLAM] = {}
 
     def _grow_workspaces(self, max_obs: int) -> None:
-        if max_obs <= self._room:
-            return
-        self._room = max_obs
-        floats, ints = (
-            association.association_workspace_sizes(self.template.max_landmarks, max_obs)
-            if self.associates
-            else (0, 0)
-        )
-        self.workspaces = (
-            np.empty(ekf.update_workspace_size(self.x.shape[1], max_obs)),
-            np.empty(floats),
-            np.empty(ints, dtype=np.int64),
-        )
+        if max_obs > self._room:
+            self._room = max_obs
+            self.workspaces = correction_workspaces(
+                self.x.shape[1], self.template.max_landmarks, max_obs, self.associates
+            )
 
     def grow_for(self, mask: np.ndarray) -> None:
         """Grow the workspaces for the observations of the worlds of ``mask``."""

@@ -60,6 +60,7 @@ from slam_env.ekf import checks
 from slam_env.ekf.chi2 import chi2_gate, chi2_ppf, joint_gates
 from slam_env.ekf.models import MEASUREMENT_MODELS, MOTION_MODELS
 from slam_env.kernels import association, ekf, ekf_codes
+from slam_env.kernels.correction import correct, correction_workspaces
 from slam_env.kernels.models import wrap_angle
 
 __all__ = [
@@ -403,6 +404,10 @@ class EKFSLAM:
         self._mask = np.ones(1, dtype=np.bool_)
         self._error = np.zeros(1, dtype=np.int64)
         self._count = np.zeros(1, dtype=np.int64)
+        # The tentative sightings an update would keep, and the joint gates (grown with
+        # the workspaces): placeholders, never read, where the filter does not associate.
+        self._held = np.empty_like(self._tentativeb)
+        self._joint_gates = np.zeros(1)
         self._max_obs = -1
         self._grow_workspace(min(self._N, 8))
         # The kernels' arguments that never change, packed once (a call then pays for
@@ -411,9 +416,9 @@ class EKFSLAM:
             self._xb, self._Pb, self._nb, self._firstb, self._u, self._params, self._modes,
             self._mask, self._error,
         )  # fmt: skip
-        self._update_state = (
+        self._state = (
             self._xb, self._Pb, self._nb, self._id_to_slot_b, self._slot_to_id_b,
-            self._n_rejected_b, self._firstb, self._params, self._modes,
+            self._n_rejected_b, self._firstb, self._tentativeb,
         )  # fmt: skip
 
     @property
@@ -425,11 +430,10 @@ class EKFSLAM:
         """Room in the kernels' workspaces for ``max_obs`` observations per update."""
         if max_obs > self._max_obs:
             self._max_obs = max_obs
-            self._work = np.empty(ekf.update_workspace_size(self._xb.shape[1], max_obs))
+            self._workspaces = correction_workspaces(
+                self._xb.shape[1], self._N, max_obs, self.associates
+            )
             if self.associates:
-                floats, ints = association.association_workspace_sizes(self._N, max_obs)
-                self._assoc_work = (np.empty(floats), np.empty(ints, dtype=np.int64))
-                self._held = np.empty_like(self._tentativeb)
                 self._joint_gates = joint_gates(self._association_gates[0], max_obs)
 
     @staticmethod
@@ -730,24 +734,18 @@ class EKFSLAM:
         nearest = np.full((1, k), np.nan)
         count = self._count
         count[0] = k
-        if self.associates:
-            if not np.isfinite(zb).all():
-                raise checks.bad_observations(zb[0], np.zeros(k, dtype=np.int64), self._N)
-            associated = association.associate(
-                self._xb, self._Pb, self._nb, self._params, self._modes, self._joint_gates,
-                zb, count, self._mask, idb, nearest, self._tentativeb, self._held,
-                *self._assoc_work,
-            )  # fmt: skip
-            if not associated:
-                raise RuntimeError("the association's workspace is too small")  # a bug here
+        if self.associates and not np.isfinite(zb).all():
+            raise checks.bad_observations(zb[0], np.zeros(k, dtype=np.int64), self._N)
         error = self._error
-        ekf.update(*self._update_state, zb, idb, count, self._mask, status, nis, error, self._work)
+        # Where the filter associates, the landmarks it chooses overwrite idb.
+        io = (zb, idb, count, idb, nearest, self._held, status, nis, error)
+        config = (self._params, self._modes, self._joint_gates)
+        if not correct(self._state, config, io, self._mask, self._workspaces, self.associates):
+            raise RuntimeError("the correction's workspace is too small")  # a bug here
         if error[0]:
             self._raise(
                 int(error[0]), "update", lambda: checks.bad_observations(zb[0], idb[0], self._N)
             )
-        if self.associates:
-            self._tentativeb[...] = self._held  # kept only once the update has succeeded
         return UpdateResult(idb[0], status[0], nis[0], nearest[0])
 
     @staticmethod

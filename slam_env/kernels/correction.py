@@ -13,6 +13,21 @@ from slam_env.kernels.association import associate, association_workspace_sizes
 from slam_env.kernels.ekf import largest_count, update, update_workspace_size
 
 
+def correction_workspaces(
+    dmax: int, max_landmarks: int, max_obs: int, associates: bool
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Workspaces of :func:`correct` for states of ``dmax`` rows, ``max_landmarks``
+    slots and up to ``max_obs`` observations per world: the update's float64 scratch,
+    then the association's float64 and int64 ones (empty where the filters do not
+    associate)."""
+    floats, ints = association_workspace_sizes(max_landmarks, max_obs) if associates else (0, 0)
+    return (
+        np.empty(update_workspace_size(dmax, max_obs)),
+        np.empty(floats),
+        np.empty(ints, dtype=np.int64),
+    )
+
+
 @kernel
 def workspaces_fit(
     dmax: int, counts: np.ndarray, mask: np.ndarray, D: int, workspaces: tuple, associates: bool
