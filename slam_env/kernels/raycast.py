@@ -39,7 +39,18 @@ from slam_env.kernels import inline_kernel, kernel
 from slam_env.kernels.geometry import N_CIRCLES, N_POLYGONS, N_SEGMENTS, StaticGeometry
 from slam_env.kernels.shape_queries import query_box_entry, shape_alpha
 
-__all__ = ["line_of_sight", "lines_of_sight", "range_scan", "ray_fraction", "ray_fractions"]
+__all__ = [
+    "all_leaves",
+    "beam_segments",
+    "line_of_sight",
+    "lines_of_sight",
+    "near_leaves",
+    "range_scan",
+    "ray_fraction",
+    "ray_fractions",
+    "segment_fractions",
+    "sight_lines",
+]
 
 # How much farther than a query's reach a box may lie and still be tried, relative to
 # the coordinates' size: far above the rounding of a segment's end point, far below
@@ -59,132 +70,31 @@ def _node_entry(
 
 
 @inline_kernel
-def _blocks(
-    g: StaticGeometry, b: int, node: int, ax: float, ay: float, bx: float, by: float
-) -> bool:
-    """Whether the shape of leaf ``node`` blocks the segment a → b (before alpha 1)."""
-    if _node_entry(g.tree_boxes, b, node, ax, ay, bx, by) < 1.0:
-        return shape_alpha(g, b, g.tree[b, node, 2], ax, ay, bx, by) < 1.0
-    return False
-
-
-@inline_kernel
-def _skipped_shape(g: StaticGeometry, b: int, skip_circle: int) -> int:
-    """The shape number of circle ``skip_circle`` of world ``b`` (−1 for none)."""
-    if skip_circle < 0:
-        return -1
-    return g.counts[b, N_SEGMENTS] + g.counts[b, N_POLYGONS] + skip_circle
-
-
-@inline_kernel
-def line_of_sight(
-    geometry: StaticGeometry,
-    b: int,
-    ax: float,
-    ay: float,
-    bx: float,
-    by: float,
-    skip_circle: int,
-) -> bool:
-    """True when nothing in world ``b`` but circle ``skip_circle`` (a landmark's own
-    post; −1 to skip none) blocks the segment a → b: pymunk's
-    ``segment_query_first(a, b, 0.0, filter) is None`` for a filter that passes every
-    static shape but that post."""
-    g = geometry
-    n = g.counts[b, N_SEGMENTS] + g.counts[b, N_POLYGONS] + g.counts[b, N_CIRCLES]
-    skip_shape = _skipped_shape(g, b, skip_circle)
-    for node in range(2 * n - 1):  # the leaves, one per shape
-        shape = g.tree[b, node, 2]
-        if shape >= 0 and shape != skip_shape and _blocks(g, b, node, ax, ay, bx, by):
-            return False
-    return True
-
-
-@inline_kernel
-def line_of_sight_among(
-    geometry: StaticGeometry,
-    b: int,
-    leaves: np.ndarray,
-    count: int,
-    ax: float,
-    ay: float,
-    bx: float,
-    by: float,
-    skip_circle: int,
-) -> bool:
-    """:func:`line_of_sight` trying only the first ``count`` ``leaves`` (from
-    :func:`near_leaves` for a segment that starts at a and is no longer than its
-    reach: the same answer)."""
-    skip_shape = _skipped_shape(geometry, b, skip_circle)
-    for i in range(count):
-        node = leaves[i]
-        if geometry.tree[b, node, 2] != skip_shape and _blocks(geometry, b, node, ax, ay, bx, by):
-            return False
-    return True
-
-
-@inline_kernel
-def _try_leaf(
-    g: StaticGeometry,
-    b: int,
-    node: int,
-    ax: float,
-    ay: float,
-    bx: float,
-    by: float,
-    best: float,
-    best_entry: float,
-    runner_up: float,
+def _ranked(
+    alpha: float, entry: float, best: float, best_entry: float, runner_up: float
 ) -> tuple[float, float, float]:
-    """One leaf of :func:`ray_fraction`'s loop: (the smallest alpha so far, where the
-    query enters that shape's box, the smallest alpha of the other shapes)."""
-    entry = _node_entry(g.tree_boxes, b, node, ax, ay, bx, by)
-    if entry < 1.0:
-        alpha = shape_alpha(g, b, g.tree[b, node, 2], ax, ay, bx, by)
-        if alpha < best:
-            return alpha, entry, best
-        if alpha < runner_up:
-            return best, best_entry, alpha
+    """A tried shape's ``alpha``, its box entered at ``entry``, ranked: (the smallest
+    alpha so far, where the query enters that shape's box, the smallest alpha of the
+    other shapes)."""
+    if alpha < best:
+        return alpha, entry, best
+    if alpha < runner_up:
+        return best, best_entry, alpha
     return best, best_entry, runner_up
 
 
 @inline_kernel
-def _settle(
-    g: StaticGeometry,
-    b: int,
-    ax: float,
-    ay: float,
-    bx: float,
-    by: float,
-    best: float,
-    best_entry: float,
-    runner_up: float,
-) -> float:
-    """The answer of :func:`ray_fraction` once every leaf the query enters is tried."""
-    # Until the best shape is tried, the bound is 1 or another shape's alpha, so at
-    # least runner_up; every box on the way to it is entered at best_entry or before.
-    # Below runner_up, nothing can prune it.
-    if best == 1.0 or best_entry < runner_up:
-        return best
-    return _tree_fraction(g, b, ax, ay, bx, by)
-
-
-@inline_kernel
-def ray_fraction(
-    geometry: StaticGeometry, b: int, ax: float, ay: float, bx: float, by: float
-) -> float:
-    """The fraction in [0, 1] of a → b before the first shape of world ``b`` that it
-    hits, 1.0 when clear: ``segment_query_first(a, b, 0.0, filter).alpha`` (1.0 for
-    None) for a filter that passes every static shape."""
+def all_leaves(geometry: StaticGeometry, b: int, out: np.ndarray) -> int:
+    """Every leaf of world ``b``'s tree (one per shape), in node order, into ``out`` (at
+    least the tree's rows); returns how many."""
     g = geometry
     n = g.counts[b, N_SEGMENTS] + g.counts[b, N_POLYGONS] + g.counts[b, N_CIRCLES]
-    best, best_entry, runner_up = 1.0, math.inf, 1.0
+    count = 0
     for node in range(2 * n - 1):
         if g.tree[b, node, 2] >= 0:
-            best, best_entry, runner_up = _try_leaf(
-                g, b, node, ax, ay, bx, by, best, best_entry, runner_up
-            )
-    return _settle(g, b, ax, ay, bx, by, best, best_entry, runner_up)
+            out[count] = node
+            count += 1
+    return count
 
 
 @inline_kernel
@@ -212,26 +122,115 @@ def near_leaves(
     return count
 
 
+# The queries of one world come in batches, each batch one call: a compiled call, even
+# an inlined one, increfs and decrefs every array of the geometry it is passed (about
+# 40 ns for StaticGeometry), several times the cost of trying a leaf, so no per-query or
+# per-leaf function takes the geometry; only shape_alpha does, for a box entered.
+
+
 @inline_kernel
-def ray_fraction_among(
+def sight_lines(
     geometry: StaticGeometry,
     b: int,
     leaves: np.ndarray,
     count: int,
     ax: float,
     ay: float,
+    targets: np.ndarray,
+    skip_circles: np.ndarray,
+    k: int,
+    out: np.ndarray,
+) -> None:
+    """``out[j]``: True when nothing in world ``b`` but circle ``skip_circles[j]`` (a
+    landmark's own post; −1 to skip none) blocks the segment from a to ``targets[j]``,
+    for j < k: pymunk's ``segment_query_first(a, target, 0.0, filter) is None`` for a
+    filter that passes every static shape but that post. Tries the first ``count``
+    ``leaves``: :func:`all_leaves`, or :func:`near_leaves` of a for a reach no shorter
+    than any of the segments (the same answers)."""
+    g = geometry
+    boxes, tree = g.tree_boxes, g.tree
+    first_circle = g.counts[b, N_SEGMENTS] + g.counts[b, N_POLYGONS]
+    for j in range(k):
+        bx, by = targets[j, 0], targets[j, 1]
+        skip = skip_circles[j]
+        skip_shape = first_circle + skip if skip >= 0 else -1
+        clear = True
+        for i in range(count):
+            node = leaves[i]
+            shape = tree[b, node, 2]
+            if shape == skip_shape or _node_entry(boxes, b, node, ax, ay, bx, by) >= 1.0:
+                continue
+            if shape_alpha(g, b, shape, ax, ay, bx, by) < 1.0:
+                clear = False
+                break
+        out[j] = clear
+
+
+@inline_kernel
+def segment_fractions(
+    geometry: StaticGeometry,
+    b: int,
+    leaves: np.ndarray,
+    count: int,
+    segments: np.ndarray,
+    out: np.ndarray,
+) -> None:
+    """``out[q]``: the fraction in [0, 1] of ``segments[q]`` (``[ax, ay, bx, by]``)
+    before the first shape of world ``b`` that it hits, 1.0 when clear:
+    ``segment_query_first(a, b, 0.0, filter).alpha`` (1.0 for None) for a filter that
+    passes every static shape. Tries the first ``count`` ``leaves`` (as
+    :func:`sight_lines` does)."""
+    g = geometry
+    boxes, tree = g.tree_boxes, g.tree
+    for q in range(segments.shape[0]):
+        ax, ay, bx, by = segments[q, 0], segments[q, 1], segments[q, 2], segments[q, 3]
+        best, best_entry, runner_up = 1.0, math.inf, 1.0
+        for i in range(count):
+            node = leaves[i]
+            entry = _node_entry(boxes, b, node, ax, ay, bx, by)
+            if entry < 1.0:
+                alpha = shape_alpha(g, b, tree[b, node, 2], ax, ay, bx, by)
+                best, best_entry, runner_up = _ranked(alpha, entry, best, best_entry, runner_up)
+        # Until the best shape is tried, the bound is 1 or another shape's alpha, so at
+        # least runner_up; every box on the way to it is entered at best_entry or
+        # before. Below runner_up, nothing can prune it.
+        if best == 1.0 or best_entry < runner_up:
+            out[q] = best
+        else:
+            out[q] = _tree_fraction(g, b, ax, ay, bx, by)
+
+
+@kernel
+def line_of_sight(
+    geometry: StaticGeometry,
+    b: int,
+    ax: float,
+    ay: float,
     bx: float,
     by: float,
+    skip_circle: int,
+) -> bool:
+    """One :func:`sight_lines` query against every shape of world ``b``."""
+    leaves = np.empty(geometry.tree.shape[1], dtype=np.int64)
+    count = all_leaves(geometry, b, leaves)
+    out = np.empty(1, dtype=np.bool_)
+    sight_lines(
+        geometry, b, leaves, count, ax, ay, np.array([[bx, by]]), np.array([skip_circle]), 1,
+        out,
+    )  # fmt: skip
+    return out[0]
+
+
+@kernel
+def ray_fraction(
+    geometry: StaticGeometry, b: int, ax: float, ay: float, bx: float, by: float
 ) -> float:
-    """:func:`ray_fraction` trying only the first ``count`` ``leaves`` (from
-    :func:`near_leaves` for a segment that starts at a and is no longer than its
-    reach: the same answer)."""
-    best, best_entry, runner_up = 1.0, math.inf, 1.0
-    for i in range(count):
-        best, best_entry, runner_up = _try_leaf(
-            geometry, b, leaves[i], ax, ay, bx, by, best, best_entry, runner_up
-        )
-    return _settle(geometry, b, ax, ay, bx, by, best, best_entry, runner_up)
+    """One :func:`segment_fractions` query against every shape of world ``b``."""
+    leaves = np.empty(geometry.tree.shape[1], dtype=np.int64)
+    count = all_leaves(geometry, b, leaves)
+    out = np.empty(1)
+    segment_fractions(geometry, b, leaves, count, np.array([[ax, ay, bx, by]]), out)
+    return out[0]
 
 
 # Tree levels whose child still to search is kept in the bits of an int64; deeper ones
@@ -333,9 +332,14 @@ def lines_of_sight(
     """``out[q] = line_of_sight(geometry, worlds[q], *segments[q], skip_circles[q])``
     for Q queries: ``worlds`` (Q,) int64, ``segments`` (Q, 4) ``[ax, ay, bx, by]``,
     ``skip_circles`` (Q,) int64, ``out`` (Q,) bool."""
+    leaves = np.empty(geometry.tree.shape[1], dtype=np.int64)
     for q in range(worlds.shape[0]):
-        ax, ay, bx, by = segments[q, 0], segments[q, 1], segments[q, 2], segments[q, 3]
-        out[q] = line_of_sight(geometry, worlds[q], ax, ay, bx, by, skip_circles[q])
+        b = worlds[q]
+        count = all_leaves(geometry, b, leaves)
+        sight_lines(
+            geometry, b, leaves, count, segments[q, 0], segments[q, 1], segments[q:q + 1, 2:],
+            skip_circles[q:q + 1], 1, out[q:q + 1],
+        )  # fmt: skip
 
 
 @kernel
@@ -345,28 +349,24 @@ def ray_fractions(
     """``out[q] = ray_fraction(geometry, worlds[q], *segments[q])`` for Q queries:
     ``worlds`` (Q,) int64, ``segments`` (Q, 4) ``[ax, ay, bx, by]``, ``out`` (Q,)
     float64."""
+    leaves = np.empty(geometry.tree.shape[1], dtype=np.int64)
     for q in range(worlds.shape[0]):
-        ax, ay, bx, by = segments[q, 0], segments[q, 1], segments[q, 2], segments[q, 3]
-        out[q] = ray_fraction(geometry, worlds[q], ax, ay, bx, by)
+        b = worlds[q]
+        count = all_leaves(geometry, b, leaves)
+        segment_fractions(geometry, b, leaves, count, segments[q : q + 1], out[q : q + 1])
 
 
 @inline_kernel
-def beam_fraction(
-    geometry: StaticGeometry,
-    b: int,
-    leaves: np.ndarray,
-    count: int,
-    x: float,
-    y: float,
-    heading: float,
-    reach: float,
-) -> float:
-    """The :func:`ray_fraction` of the beam of length ``reach`` from (x, y) along
-    ``heading`` (rad, world frame), its free share in [0, 1], trying the first
-    ``count`` ``leaves`` (:func:`near_leaves` of (x, y) for this reach)."""
-    ex = x + reach * math.cos(heading)
-    ey = y + reach * math.sin(heading)
-    return ray_fraction_among(geometry, b, leaves, count, x, y, ex, ey)
+def beam_segments(
+    x: float, y: float, theta: float, angles: np.ndarray, reach: float, out: np.ndarray
+) -> None:
+    """``out[k]`` (``[ax, ay, bx, by]``): the beam of length ``reach`` from (x, y) at
+    ``angles[k]`` (rad) from the heading θ."""
+    for k in range(angles.shape[0]):
+        out[k, 0] = x
+        out[k, 1] = y
+        out[k, 2] = x + reach * math.cos(theta + angles[k])
+        out[k, 3] = y + reach * math.sin(theta + angles[k])
 
 
 @kernel
@@ -386,6 +386,8 @@ def range_scan(
     (x + max_range·cos(θ + a), y + max_range·sin(θ + a)), times ``max_range``."""
     leaves = np.empty(geometry.tree.shape[1], dtype=np.int64)
     count = near_leaves(geometry, b, x, y, max_range, leaves)
+    segments = np.empty((angles.shape[0], 4))
+    beam_segments(x, y, theta, angles, max_range, segments)
+    segment_fractions(geometry, b, leaves, count, segments, out)
     for k in range(angles.shape[0]):
-        fraction = beam_fraction(geometry, b, leaves, count, x, y, theta + angles[k], max_range)
-        out[k] = fraction * max_range
+        out[k] *= max_range

@@ -30,7 +30,7 @@ from slam_env.kernels.angles import wrap
 from slam_env.kernels.geometry import StaticGeometry
 from slam_env.kernels.models import CARTESIAN, RANGE_BEARING, observe, range_bearing_observe
 from slam_env.kernels.random import normal_pair
-from slam_env.kernels.raycast import beam_fraction, line_of_sight_among, near_leaves
+from slam_env.kernels.raycast import beam_segments, near_leaves, segment_fractions, sight_lines
 
 
 class SensorParams(NamedTuple):
@@ -180,20 +180,23 @@ def sense_landmarks(
     rows = np.empty(n_rows, dtype=np.int64)
     found = np.empty((n_rows, 3))
     leaves = np.empty(geometry.tree.shape[1], dtype=np.int64)
-    near = 0
+    targets = np.empty((n_rows, 2))
+    clear = np.empty(n_rows, dtype=np.bool_)
     for b in range(poses.shape[0]):
         if not active[b]:
             continue
         x, y, theta = poses[b, 0], poses[b, 1], poses[b, 2]
         u = uniforms[b, offset:]
         k = in_view(x, y, theta, landmarks[b], id_order[b], params, u, rows, found)
-        if k:  # the shapes a sight line within the range can meet, once per world
+        if k:  # every sight line at once, against the shapes within the range
             near = near_leaves(geometry, b, x, y, params.max_range, leaves)
+            for j in range(k):
+                targets[j, 0] = landmarks[b, rows[j], 0]
+                targets[j, 1] = landmarks[b, rows[j], 1]
+            sight_lines(geometry, b, leaves, near, x, y, targets, rows, k, clear)
         visible = 0
         for j in range(k):
-            i = rows[j]
-            tx, ty = landmarks[b, i, 0], landmarks[b, i, 1]
-            if line_of_sight_among(geometry, b, leaves, near, x, y, tx, ty, i):
+            if clear[j]:
                 _keep(rows, found, j, visible)
                 visible += 1
         out_count[b] = emit_detections(
@@ -224,12 +227,11 @@ def proximity_scan(
     :class:`StaticGeometry`, a plain tuple)."""
     geometry = StaticGeometry(*geometry_fields)
     leaves = np.empty(geometry.tree.shape[1], dtype=np.int64)
+    segments = np.empty((beam_angles.shape[0], 4))
     for b in range(poses.shape[0]):
         if not active[b]:
             continue
         x, y, theta = poses[b, 0], poses[b, 1], poses[b, 2]
         count = near_leaves(geometry, b, x, y, reach, leaves)  # once for all beams
-        for k in range(beam_angles.shape[0]):
-            out[b, k] = beam_fraction(
-                geometry, b, leaves, count, x, y, theta + beam_angles[k], reach
-            )
+        beam_segments(x, y, theta, beam_angles, reach, segments)
+        segment_fractions(geometry, b, leaves, count, segments, out[b])
