@@ -1,12 +1,13 @@
 """Filter consistency and map accuracy against the batch least-squares optimum.
 
     .venv/bin/python benchmarks/bench_consistency.py [--runs 30] [--steps 500]
-        [--odometry-scale 1] [--seed 0] [--variants known/standard jcbb/fej ...] [--clutter 0]
+        [--odometry-scale 1] [--seed 0] [--variants known/standard ideal jcbb/fej ...]
+        [--clutter 0]
 
 The settings the README records: the defaults, ``--odometry-scale 4 --steps 1000``,
 ``--odometry-scale 16 --steps 1000`` and ``--clutter 0.1``. A run of the defaults, every
-variant, takes about 30 s on two shared cores (env ~7 s, filters ~12 s, smoother
-~13 s); the 1,000-step ones 2–3 minutes.
+row, takes about 30 s on two shared cores (env 4–7 s, filters ~12 s of which the
+dense ideal EKF ~6 s, smoother 7–13 s); the 1,000-step ones 1–4 minutes.
 
 Monte Carlo over the env's own noise: episode r is ``slam_env/Landmarks-v0`` (the raw
 stream: odometry readings, detections with IDs, the truth in ``info``) reset with seed
@@ -26,7 +27,19 @@ least-squares smoother (benchmarks/smoother.py), started from the known-ID stand
 filter's filtered trajectory and final map. Variants whose ``data_association`` is not
 ``"known"`` get the detections with every ID hidden (−1); the others, and the smoother,
 only the detections the env labelled (ID ≥ 0: clutter, where the env has it, is left
-out). The table:
+out).
+
+The row ``ideal`` (:data:`IDEAL`) is the yardstick of the ``in band`` column: the
+"ideal EKF" of Huang, Mourikis & Roumeliotis ("Analysis and improvement of the
+consistency of extended Kalman filter based SLAM", ICRA 2008), the known-ID filter
+with every Jacobian evaluated at the truth (G and V at the true pose the step starts
+from, H at the true pose and landmark, L and W of a new landmark at the true pose)
+while its means come from its estimates (benchmarks/ideal_ekf.py, :func:`run_ideal`).
+It cannot run on a robot (it reads the truth), but it shows how consistent an EKF
+linearisation can be on the same data: the NEES a filter can hope for, as ``LS RMSE``
+is the map error it can hope for.
+
+The table:
 
 * ``in band``: the share of steps 1..T whose pose NEES averaged over the runs lies in
   the two-sided 95% χ² band (3·runs dof, divided by runs; slam_env.metrics);
@@ -49,18 +62,19 @@ from __future__ import annotations
 import argparse
 import math
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
 import gymnasium as gym
 import numpy as np
+from ideal_ekf import IdealEKF
 from smoother import Episode, smooth
 
 import slam_env  # noqa: F401  (registers the env IDs)
 from agents.navigation import ControllerParams, GridMap, PathFollower, astar, nearest_passable
 from slam_env.config import make_config
-from slam_env.ekf import EKFSLAM
+from slam_env.ekf import EKFSLAM, UpdateResult
 from slam_env.env import unpack_detections
 from slam_env.kernels.association_score import SCORE_NAMES, score_association
 from slam_env.layouts import LANDMARK_POST_RADIUS
@@ -87,6 +101,8 @@ VARIANTS: dict[str, dict[str, Any]] = {
 }
 # The variant whose filtered trajectory and map start the smoother.
 BASELINE = "known/standard"
+# The row of the ideal EKF (benchmarks/ideal_ekf.py, every Jacobian at the truth).
+IDEAL = "ideal"
 
 SEEN_CLOSE = 3.0  # m, a landmark detected from closer than this needs no visit
 GOAL_REACHED = 0.4  # m of path left at which the driver takes the next goal
@@ -262,6 +278,14 @@ def hides_ids(kwargs: dict[str, Any]) -> bool:
     return kwargs.get("data_association", "known") != "known"
 
 
+# The rows the table can have, in its order: the ideal EKF after the known-ID filters.
+ROWS = (
+    *(name for name in VARIANTS if not hides_ids(VARIANTS[name])),
+    IDEAL,
+    *(name for name in VARIANTS if hides_ids(VARIANTS[name])),
+)
+
+
 @dataclass
 class FilterRun:
     """One variant on one episode: the pose NEES per step (T,), the filtered poses
@@ -291,31 +315,33 @@ def score(
     )  # fmt: skip
 
 
-def run_filter(recording: Recording, kwargs: dict[str, Any]) -> FilterRun:
-    """One variant over the recorded episode."""
-    f = EKFSLAM(**{**filter_kwargs(recording), **kwargs})
-    hide = hides_ids(kwargs)
-    ep = recording.episode
-    T = ep.n_steps
+def follow(
+    recording: Recording,
+    belief: EKFSLAM | IdealEKF,
+    step: Callable[[int, np.ndarray, np.ndarray], UpdateResult | None],
+    hide: bool,
+) -> FilterRun:
+    """Drive ``belief`` over the recorded episode: ``step(t, z, ids)`` predicts and
+    updates it with step t's control and detections (all of them when ``hide``, else
+    the labelled ones) and returns the update's result (None without detections)."""
+    T = recording.episode.n_steps
     nees_t = np.empty(T)
     poses = np.empty((T + 1, 3))
-    poses[0] = f.pose
-    slot_truth = np.full((1, max(f.max_landmarks, 1)), -1, dtype=np.int64)
+    poses[0] = belief.pose
+    slot_truth = np.full((1, max(belief.max_landmarks, 1)), -1, dtype=np.int64)
     scores = np.zeros((1, len(SCORE_NAMES)), dtype=np.int64)
     for t in range(1, T + 1):
-        f.predict(ep.controls[t - 1])
         z, ids = recording.detections[t - 1]
         if not hide:
             z, ids = z[ids >= 0], ids[ids >= 0]
-        if len(ids):
-            n_before = f.n_landmarks
-            result = f.update(z, None if hide else ids)
-            if hide:
-                score(result, ids, n_before, slot_truth, scores)
-        poses[t] = f.pose
-        nees_t[t - 1] = nees(pose_error(f.pose, recording.true_poses[t]), f.pose_cov)
-    means = f.landmark_means()
-    landmarks = {int(i): means[k] for k, i in enumerate(f.state_to_id.tolist())}
+        n_before = belief.n_landmarks
+        result = step(t, z, ids)
+        if hide and result is not None:
+            score(result, ids, n_before, slot_truth, scores)
+        poses[t] = belief.pose
+        nees_t[t - 1] = nees(pose_error(belief.pose, recording.true_poses[t]), belief.pose_cov)
+    means = belief.landmark_means()
+    landmarks = {int(i): means[k] for k, i in enumerate(belief.state_to_id.tolist())}
     # Each filter landmark against its true one (for an associating filter: the one
     # whose detection started it; none for clutter).
     owner = {i: int(slot_truth[0, i]) for i in landmarks} if hide else {i: i for i in landmarks}
@@ -325,6 +351,35 @@ def run_filter(recording: Recording, kwargs: dict[str, Any]) -> FilterRun:
         np.array([recording.truth[owner[i]] for i in mine]).reshape(-1, 2),
     )
     return FilterRun(nees_t, poses, rmse, landmarks, scores[0])
+
+
+def run_filter(recording: Recording, kwargs: dict[str, Any]) -> FilterRun:
+    """One variant over the recorded episode."""
+    f = EKFSLAM(**{**filter_kwargs(recording), **kwargs})
+    hide = hides_ids(kwargs)
+    controls = recording.episode.controls
+
+    def step(t: int, z: np.ndarray, ids: np.ndarray) -> UpdateResult | None:
+        f.predict(controls[t - 1])
+        return f.update(z, None if hide else ids) if len(ids) else None
+
+    return follow(recording, f, step, hide)
+
+
+def run_ideal(recording: Recording) -> FilterRun:
+    """The ideal EKF over the recorded episode, known IDs, every Jacobian at the truth:
+    G and V at the true pose the step starts from, H at the true pose and landmark, L
+    and W at the true pose."""
+    f = IdealEKF(**filter_kwargs(recording))
+    controls, true_poses = recording.episode.controls, recording.true_poses
+
+    def step(t: int, z: np.ndarray, ids: np.ndarray) -> UpdateResult | None:
+        f.predict(controls[t - 1], at_pose=true_poses[t - 1])
+        if not len(ids):
+            return None
+        return f.update(z, ids, at_pose=true_poses[t], at_landmarks=recording.truth)
+
+    return follow(recording, f, step, hide=False)
 
 
 # --------------------------------------------------------------------------- main
@@ -354,14 +409,14 @@ class SmootherTally:
 
 
 def evaluate(
-    args: argparse.Namespace, variants: dict[str, dict[str, Any]]
+    args: argparse.Namespace, rows: Sequence[str]
 ) -> tuple[dict[str, Tally], SmootherTally, dict[str, float]]:
-    """Every episode through every variant and the smoother; also the seconds spent
-    on the env and driver, the filters and the smoother."""
+    """Every episode through the filter of every row (:data:`ROWS`) and the smoother;
+    also the seconds spent on the env and driver, the filters and the smoother."""
     env = gym.make(
         ENV_ID, max_episode_steps=args.steps, **env_options(args.odometry_scale, args.clutter)
     )
-    tallies = {name: Tally() for name in variants}
+    tallies = {name: Tally() for name in rows}
     ls = SmootherTally()
     clock = {"env": 0.0, "filters": 0.0, "smoother": 0.0}
     for r in range(args.runs):
@@ -370,9 +425,11 @@ def evaluate(
         clock["env"] += time.perf_counter() - start
         start = time.perf_counter()
         runs: dict[str, FilterRun] = {}
-        for name, kwargs in {BASELINE: VARIANTS[BASELINE], **variants}.items():
+        for name in dict.fromkeys([BASELINE, *rows]):
             try:
-                runs[name] = run_filter(recording, kwargs)
+                runs[name] = (
+                    run_ideal(recording) if name == IDEAL else run_filter(recording, VARIANTS[name])
+                )
             except FloatingPointError:
                 if name in tallies:
                     tallies[name].failures += 1
@@ -436,7 +493,7 @@ def print_table(
         best = float(np.mean([ls.rmse[r] for r in tally.runs])) if tally.runs else math.nan
         note = f"  ({tally.failures} runs failed, left out)" if tally.failures else ""
         correct, wrong, missed, dup = tally.scores.tolist()
-        if hides_ids(VARIANTS[name]):
+        if name in VARIANTS and hides_ids(VARIANTS[name]):
             share = correct / max(correct + wrong + missed, 1)
             association = f"{100 * share:>8.2f}%{wrong:>7}{missed:>8}{dup:>5}"
         else:
@@ -456,22 +513,22 @@ def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
     parser.add_argument(
         "--variants",
         nargs="+",
-        default=list(VARIANTS),
-        help=f"any of {', '.join(VARIANTS)} (default all)",
+        default=list(ROWS),
+        help=f"any of {', '.join(ROWS)} (default all)",
     )
     parser.add_argument("--clutter", type=float, default=0.0, help="the env's clutter_rate")
     args = parser.parse_args(argv)
     if args.runs < 1 or args.steps < 1 or not args.odometry_scale > 0.0:
         parser.error("--runs and --steps must be >= 1, --odometry-scale > 0")
-    unknown = [v for v in args.variants if v not in VARIANTS]
+    unknown = [v for v in args.variants if v not in ROWS]
     if unknown:
-        parser.error(f"unknown variants {unknown}; choose from {list(VARIANTS)}")
+        parser.error(f"unknown variants {unknown}; choose from {list(ROWS)}")
     return args
 
 
 def main(argv: Sequence[str] | None = None) -> None:
     args = parse_args(argv)
-    print_table(args, *evaluate(args, {name: VARIANTS[name] for name in args.variants}))
+    print_table(args, *evaluate(args, args.variants))
 
 
 if __name__ == "__main__":
