@@ -24,7 +24,8 @@ import pymunk
 from slam_env.config import RobotConfig, WorldConfig
 from slam_env.kernels.geometry import empty_geometry, set_world
 from slam_env.kernels.raycast import lines_of_sight, ray_fractions
-from slam_env.layouts import Layout, preset_layout, random_layout
+from slam_env.layout_generators import preset_layout, random_layout
+from slam_env.layouts import Layout
 from slam_env.world import _ALL, _MOTION_FILTER, CAT_ROBOT, World
 
 

@@ -71,8 +71,8 @@ class World:
         wall_thickness: half-thickness (segment radius) of boundary and inner walls, m.
             The boundary walls lie outside the arena: their inner face is its edge.
         validated: True when ``layout`` was already validated for this robot's radius
-            and this wall thickness (:func:`~slam_env.layouts.layout_for` does it), to
-            skip checking it again (about half a millisecond per world).
+            and this wall thickness (:func:`~slam_env.layout_generators.layout_for` does
+            it), to skip checking it again (about half a millisecond per world).
 
     Shapes: walls are static segments, obstacles static convex polygons, each landmark
     a static circle of radius :data:`LANDMARK_POST_RADIUS` (it blocks the robot and

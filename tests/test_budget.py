@@ -18,7 +18,7 @@ import pytest
 from slam_env import budget
 from slam_env.budget import check_budget, memory_bytes, world_size
 from slam_env.config import WorldConfig, make_config
-from slam_env.layouts import landmark_capacity
+from slam_env.layout_generators import landmark_capacity
 
 RAW, ACTIVE = "slam_env/Landmarks-v0", "slam_env/ActiveSLAM-v0"
 README = Path(__file__).resolve().parents[1] / "README.md"

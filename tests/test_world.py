@@ -15,13 +15,8 @@ import pymunk
 import pytest
 
 from slam_env.config import RobotConfig, WorldConfig
-from slam_env.layouts import (
-    Layout,
-    _polygon_signed_distance,
-    _segment_distance,
-    preset_layout,
-    random_layout,
-)
+from slam_env.layout_generators import preset_layout, random_layout
+from slam_env.layouts import Layout, _polygon_signed_distance, _segment_distance
 from slam_env.world import (
     _ALL,
     _MOTION_FILTER,
@@ -363,7 +358,7 @@ _SCRIPT = textwrap.dedent(
     """
     import numpy as np
     from slam_env.config import RobotConfig, WorldConfig
-    from slam_env.layouts import preset_layout
+    from slam_env.layout_generators import preset_layout
     from slam_env.world import World
     w = World(preset_layout("cluttered", WorldConfig()), RobotConfig(), 0.2, 4)
     rng = np.random.default_rng(3)
