@@ -23,19 +23,19 @@ from typing import Any
 from slam_env.layouts import (
     Layout,
     Point,
-    _as_float,
-    _as_floats,
-    _as_int,
-    _as_list,
-    _as_polygon,
-    _box,
+    as_float,
+    as_floats,
+    as_int,
+    as_list,
+    as_polygon,
+    box_polygon,
 )
 
 _DICT_KEYS = ("name", "width", "height", "landmarks", "obstacles", "walls", "start")
 
 
 def _landmarks_from(value: Any) -> tuple[tuple[int, ...], tuple[Point, ...]]:
-    items = _as_list(value, "layout 'landmarks'")
+    items = as_list(value, "layout 'landmarks'")
     if not items:
         return (), ()
     as_dicts = [isinstance(it, Mapping) for it in items]
@@ -45,7 +45,7 @@ def _landmarks_from(value: Any) -> tuple[tuple[int, ...], tuple[Point, ...]]:
         )
     if not as_dicts[0]:
         pts = tuple(
-            _as_floats(p, 2, f"layout 'landmarks'[{i}]")  # type: ignore[misc]
+            as_floats(p, 2, f"layout 'landmarks'[{i}]")  # type: ignore[misc]
             for i, p in enumerate(items)
         )
         return tuple(range(len(pts))), pts  # type: ignore[return-value]
@@ -60,11 +60,11 @@ def _landmarks_from(value: Any) -> tuple[tuple[int, ...], tuple[Point, ...]]:
                 + (f"; unknown: {', '.join(extra)}" if extra else "")
                 + (f"; missing: {', '.join(missing)}" if missing else "")
             )
-        ids.append(_as_int(it["id"], f"layout 'landmarks'[{i}].id"))
+        ids.append(as_int(it["id"], f"layout 'landmarks'[{i}].id"))
         pts.append(
             (
-                _as_float(it["x"], f"layout 'landmarks'[{i}].x"),
-                _as_float(it["y"], f"layout 'landmarks'[{i}].y"),
+                as_float(it["x"], f"layout 'landmarks'[{i}].x"),
+                as_float(it["y"], f"layout 'landmarks'[{i}].y"),
             )
         )
     return tuple(ids), tuple(pts)
@@ -79,11 +79,11 @@ def _obstacle_from(value: Any, k: int) -> Any:
                 f"{what} must be a vertex list or {{'box': [cx, cy, w, h]}}"
                 + (f"; unknown keys: {', '.join(unknown)}" if unknown else "")
             )
-        cx, cy, w, h = _as_floats(value["box"], 4, f"{what}.box")
+        cx, cy, w, h = as_floats(value["box"], 4, f"{what}.box")
         if not (w > 0 and h > 0):
             raise ValueError(f"{what}.box needs width and height > 0, got w={w}, h={h}")
-        return _box(cx, cy, w, h)
-    return _as_polygon(value, what)
+        return box_polygon(cx, cy, w, h)
+    return as_polygon(value, what)
 
 
 def layout_from_dict(d: Mapping[str, Any]) -> Layout:
@@ -105,22 +105,22 @@ def layout_from_dict(d: Mapping[str, Any]) -> Layout:
     ids, pts = _landmarks_from(d.get("landmarks", []))
     obstacles = tuple(
         _obstacle_from(o, k)
-        for k, o in enumerate(_as_list(d.get("obstacles", []), "layout 'obstacles'"))
+        for k, o in enumerate(as_list(d.get("obstacles", []), "layout 'obstacles'"))
     )
     walls = tuple(
-        _as_floats(w, 4, f"layout 'walls'[{k}]")
-        for k, w in enumerate(_as_list(d.get("walls", []), "layout 'walls'"))
+        as_floats(w, 4, f"layout 'walls'[{k}]")
+        for k, w in enumerate(as_list(d.get("walls", []), "layout 'walls'"))
     )
     kwargs: dict[str, Any] = {}
     if "start" in d:
-        kwargs["start_pose"] = _as_floats(d["start"], 3, "layout 'start'")
+        kwargs["start_pose"] = as_floats(d["start"], 3, "layout 'start'")
     if "name" in d:
         if not isinstance(d["name"], str):
             raise TypeError(f"layout 'name' must be a str, got {type(d['name']).__name__}")
         kwargs["name"] = d["name"]
     return Layout(
-        width=_as_float(d["width"], "layout 'width'"),
-        height=_as_float(d["height"], "layout 'height'"),
+        width=as_float(d["width"], "layout 'width'"),
+        height=as_float(d["height"], "layout 'height'"),
         landmark_ids=ids,
         landmark_positions=pts,
         obstacles=obstacles,

@@ -19,7 +19,14 @@ import numpy as np
 
 from slam_env.config import PRESETS, EnvConfig, RobotConfig, WorldConfig
 from slam_env.layout_files import load_layout
-from slam_env.layouts import LANDMARK_POST_RADIUS, Layout, Point, _as_float, _box, _segment_distance
+from slam_env.layouts import (
+    LANDMARK_POST_RADIUS,
+    Layout,
+    Point,
+    as_float,
+    box_polygon,
+    segment_distance,
+)
 
 START_MARGIN = 0.2  # m, free gap kept around generated start poses
 PASSAGE_MARGIN = 0.4  # m, generated passages are at least 2·robot radius + this wide
@@ -61,7 +68,7 @@ def _landmark_problem(
         if _box_distance(x, y, box) < need:
             return "clearance"
     for x0, y0, x1, y1 in walls:
-        if _segment_distance(x, y, x0, y0, x1, y1) - wall_thickness < need:
+        if segment_distance(x, y, x0, y0, x1, y1) - wall_thickness < need:
             return "clearance"
     for kx, ky, kr in keep_out:
         if math.hypot(x - kx, y - ky) < kr:
@@ -108,7 +115,7 @@ def random_layout(cfg: WorldConfig, robot_radius: float, rng: np.random.Generato
         raise TypeError(f"cfg must be a WorldConfig, got {type(cfg).__name__}")
     if not isinstance(rng, np.random.Generator):
         raise TypeError(f"rng must be a numpy.random.Generator, got {type(rng).__name__}")
-    r = _as_float(robot_radius, "robot_radius")
+    r = as_float(robot_radius, "robot_radius")
     if not (math.isfinite(r) and r > 0):
         raise ValueError(f"robot_radius must be finite and > 0, got {robot_radius!r}")
     W, H = cfg.width, cfg.height
@@ -145,7 +152,7 @@ def random_layout(cfg: WorldConfig, robot_radius: float, rng: np.random.Generato
                     "and the walls; lower n_obstacles, obstacle_size or radius, or enlarge "
                     "the arena (width, height)"
                 )
-    obstacles = tuple(_box(*b) for b in boxes)
+    obstacles = tuple(box_polygon(*b) for b in boxes)
 
     # Start pose.
     rs = r + START_MARGIN
@@ -351,7 +358,7 @@ def _cluttered_preset(cfg: WorldConfig, robot_radius: float) -> Layout:
     # Leave the lattice cell nearest the arena centre empty for the start.
     centre = (0.5 * W, 0.5 * H)
     boxes.pop(min(range(len(boxes)), key=lambda m: math.dist(centre, boxes[m][:2])))
-    obstacles = tuple(_box(*b) for b in boxes)
+    obstacles = tuple(box_polygon(*b) for b in boxes)
     parts = {"width": W, "height": H, "landmark_ids": (), "landmark_positions": ()}
     parts.update(obstacles=obstacles, name="cluttered")
     start = _choose_start(parts, centre, robot_radius, cfg.wall_thickness)
@@ -444,7 +451,7 @@ def preset_layout(
         raise TypeError(f"cfg must be a WorldConfig, got {type(cfg).__name__}")
     if name not in PRESET_NAMES:
         raise ValueError(f"unknown preset {name!r}; presets: {', '.join(PRESET_NAMES)}")
-    r = _as_float(robot_radius, "robot_radius")
+    r = as_float(robot_radius, "robot_radius")
     if not (math.isfinite(r) and r > 0):
         raise ValueError(f"robot_radius must be finite and > 0, got {robot_radius!r}")
     return _preset_cached(name, cfg, r)

@@ -36,7 +36,7 @@ _EPS = 1e-9  # m, tolerance for geometric comparisons on user input
 # --------------------------------------------------------------------------- geometry
 
 
-def _segment_distance(px: float, py: float, x0: float, y0: float, x1: float, y1: float) -> float:
+def segment_distance(px: float, py: float, x0: float, y0: float, x1: float, y1: float) -> float:
     """Distance (m) from point p to the segment (x0, y0)–(x1, y1)."""
     ex, ey = x1 - x0, y1 - y0
     dx, dy = px - x0, py - y0
@@ -125,7 +125,7 @@ def _polygon_problem(poly: Sequence[Point]) -> str | None:
     return None
 
 
-def _box(cx: float, cy: float, w: float, h: float) -> tuple[Point, ...]:
+def box_polygon(cx: float, cy: float, w: float, h: float) -> tuple[Point, ...]:
     """An axis-aligned box as a counter-clockwise polygon."""
     hw, hh = 0.5 * w, 0.5 * h
     return ((cx - hw, cy - hh), (cx + hw, cy - hh), (cx + hw, cy + hh), (cx - hw, cy + hh))
@@ -149,13 +149,13 @@ def _is_number(value: Any) -> bool:
     )
 
 
-def _as_float(value: Any, what: str) -> float:
+def as_float(value: Any, what: str) -> float:
     if not _is_number(value):
         raise TypeError(f"{what} must be a number, got {type(value).__name__}")
     return float(value)
 
 
-def _as_int(value: Any, what: str) -> int:
+def as_int(value: Any, what: str) -> int:
     if type(value) is int:  # the common case, already what int() would give
         return value
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)):
@@ -163,23 +163,23 @@ def _as_int(value: Any, what: str) -> int:
     return int(value)
 
 
-def _as_list(value: Any, what: str) -> list[Any]:
+def as_list(value: Any, what: str) -> list[Any]:
     if isinstance(value, (str, bytes, Mapping)) or not isinstance(value, (Iterable, np.ndarray)):
         raise TypeError(f"{what} must be a sequence, got {type(value).__name__}")
     return list(value)
 
 
-def _as_floats(value: Any, n: int, what: str) -> tuple[float, ...]:
+def as_floats(value: Any, n: int, what: str) -> tuple[float, ...]:
     if type(value) is tuple and len(value) == n and all(type(v) is float for v in value):
         return value  # already what the coercion below makes (a generated layout's)
-    items = _as_list(value, what)
+    items = as_list(value, what)
     if len(items) != n:
         raise ValueError(f"{what} must have {n} numbers, got {len(items)}")
-    return tuple(_as_float(v, f"{what}[{i}]") for i, v in enumerate(items))
+    return tuple(as_float(v, f"{what}[{i}]") for i, v in enumerate(items))
 
 
-def _as_polygon(value: Any, what: str) -> tuple[Point, ...]:
-    pts = tuple(_as_floats(p, 2, f"{what} vertex {j}") for j, p in enumerate(_as_list(value, what)))
+def as_polygon(value: Any, what: str) -> tuple[Point, ...]:
+    pts = tuple(as_floats(p, 2, f"{what} vertex {j}") for j, p in enumerate(as_list(value, what)))
     # Normalise to counter-clockwise; degenerate shapes are left for validate().
     if len(pts) >= 3 and _signed_area(pts) < 0.0:
         pts = pts[::-1]
@@ -220,27 +220,25 @@ class Layout:
 
     def __post_init__(self) -> None:
         fields: dict[str, Any] = {
-            "width": _as_float(self.width, "Layout.width"),
-            "height": _as_float(self.height, "Layout.height"),
+            "width": as_float(self.width, "Layout.width"),
+            "height": as_float(self.height, "Layout.height"),
             "landmark_ids": tuple(
-                _as_int(v, f"Layout.landmark_ids[{i}]")
-                for i, v in enumerate(_as_list(self.landmark_ids, "Layout.landmark_ids"))
+                as_int(v, f"Layout.landmark_ids[{i}]")
+                for i, v in enumerate(as_list(self.landmark_ids, "Layout.landmark_ids"))
             ),
             "landmark_positions": tuple(
-                _as_floats(p, 2, f"Layout.landmark_positions[{i}]")
-                for i, p in enumerate(
-                    _as_list(self.landmark_positions, "Layout.landmark_positions")
-                )
+                as_floats(p, 2, f"Layout.landmark_positions[{i}]")
+                for i, p in enumerate(as_list(self.landmark_positions, "Layout.landmark_positions"))
             ),
             "obstacles": tuple(
-                _as_polygon(p, f"Layout.obstacles[{k}]")
-                for k, p in enumerate(_as_list(self.obstacles, "Layout.obstacles"))
+                as_polygon(p, f"Layout.obstacles[{k}]")
+                for k, p in enumerate(as_list(self.obstacles, "Layout.obstacles"))
             ),
             "walls": tuple(
-                _as_floats(w, 4, f"Layout.walls[{k}]")
-                for k, w in enumerate(_as_list(self.walls, "Layout.walls"))
+                as_floats(w, 4, f"Layout.walls[{k}]")
+                for k, w in enumerate(as_list(self.walls, "Layout.walls"))
             ),
-            "start_pose": _as_floats(self.start_pose, 3, "Layout.start_pose"),
+            "start_pose": as_floats(self.start_pose, 3, "Layout.start_pose"),
         }
         if not isinstance(self.name, str):
             raise TypeError(f"Layout.name must be a str, got {type(self.name).__name__}")
@@ -305,7 +303,7 @@ class Layout:
                 return f"overlaps obstacle {k}"
         rw = r + wall_thickness
         for k, (x0, y0, x1, y1) in enumerate(self.walls):
-            if _segment_distance(x, y, x0, y0, x1, y1) < rw - _EPS:
+            if segment_distance(x, y, x0, y0, x1, y1) < rw - _EPS:
                 return f"overlaps wall {k}"
         rp = r + LANDMARK_POST_RADIUS
         for lid, (lx, ly) in zip(self.landmark_ids, self.landmark_positions, strict=False):
@@ -428,7 +426,7 @@ class Layout:
                         f"closer than the clearance/post radius {need:.3g} m"
                     )
             for k, (x0, y0, x1, y1) in enumerate(self.walls):
-                d = _segment_distance(lx, ly, x0, y0, x1, y1) - wall_thickness
+                d = segment_distance(lx, ly, x0, y0, x1, y1) - wall_thickness
                 if d < 0.0:
                     raise ValueError(f"{_landmark_at(lid, lx, ly)} is inside wall {k}")
                 if d < need - _EPS:

@@ -11,7 +11,7 @@ from slam_env.layouts import (
     LANDMARK_POST_RADIUS,
     _polygon_problem,
     _polygon_signed_distance,
-    _segment_distance,
+    segment_distance,
 )
 from tests.layout_samples import SQUARE, R, make
 
@@ -142,8 +142,8 @@ def test_construction_normalises_numpy_inputs() -> None:
 
 
 def test_geometry_helpers() -> None:
-    assert _segment_distance(0.0, 1.0, -1.0, 0.0, 1.0, 0.0) == pytest.approx(1.0)
-    assert _segment_distance(3.0, 0.0, -1.0, 0.0, 1.0, 0.0) == pytest.approx(2.0)
+    assert segment_distance(0.0, 1.0, -1.0, 0.0, 1.0, 0.0) == pytest.approx(1.0)
+    assert segment_distance(3.0, 0.0, -1.0, 0.0, 1.0, 0.0) == pytest.approx(2.0)
     assert _polygon_signed_distance(5.0, 5.0, SQUARE) == pytest.approx(-1.0)
     assert _polygon_signed_distance(7.0, 5.0, SQUARE) == pytest.approx(1.0)
     assert _polygon_signed_distance(7.0, 7.0, SQUARE) == pytest.approx(math.sqrt(2.0))

@@ -16,7 +16,7 @@ import pytest
 
 from slam_env.config import RobotConfig, WorldConfig
 from slam_env.layout_generators import preset_layout, random_layout
-from slam_env.layouts import Layout, _polygon_signed_distance, _segment_distance
+from slam_env.layouts import Layout, _polygon_signed_distance, segment_distance
 from slam_env.world import (
     _ALL,
     _MOTION_FILTER,
@@ -160,7 +160,7 @@ def _overlap(layout: Layout, x: float, y: float) -> float:
     for poly in layout.obstacles:
         o = max(o, R - _polygon_signed_distance(x, y, poly))
     for wall in layout.walls:
-        o = max(o, R + T - _segment_distance(x, y, *wall))
+        o = max(o, R + T - segment_distance(x, y, *wall))
     for lx, ly in layout.landmark_positions:
         o = max(o, R + LANDMARK_POST_RADIUS - math.hypot(x - lx, y - ly))
     return o
