@@ -17,12 +17,15 @@ from slam_env.kernels.geometry import StaticGeometry, empty_geometry, set_world,
 from slam_env.kernels.raycast import (
     _node_entry,
     _tree_fraction,
+    all_leaves,
     line_of_sight,
     lines_of_sight,
     near_leaves,
     range_scan,
     ray_fraction,
     ray_fractions,
+    segment_fractions,
+    sight_lines,
 )
 from slam_env.kernels.shape_queries import shape_alpha
 from slam_env.layouts import Layout
@@ -429,6 +432,82 @@ def test_the_near_leaves_hold_every_box_a_beam_can_enter(index: int) -> None:
             entered = {int(n) for n in leaves if _entry(g, int(n), x, y, *end) < 1.0}
             assert entered <= near, (x, y, reach, heading)
     assert pruned > 50
+
+
+@kernel
+def _one_call(
+    g: StaticGeometry,
+    x: float,
+    y: float,
+    reach: float,
+    segments: np.ndarray,
+    targets: np.ndarray,
+    skips: np.ndarray,
+    k: int,
+    fractions: np.ndarray,
+    clear: np.ndarray,
+) -> int:
+    """A world's queries as the sensors make them: the leaves near (x, y) within
+    ``reach`` (or all of them for an infinite reach), then every segment and every
+    sight line in one call each. Returns how many leaves were tried."""
+    leaves = np.empty(g.tree.shape[1], dtype=np.int64)
+    if math.isinf(reach):
+        count = all_leaves(g, 0, leaves)
+    else:
+        count = near_leaves(g, 0, x, y, reach, leaves)
+    segment_fractions(g, 0, leaves, count, segments, fractions)
+    sight_lines(g, 0, leaves, count, x, y, targets, skips, k, clear)
+    return count
+
+
+@pytest.mark.parametrize("index", range(len(LAYOUTS)), ids=IDS)
+def test_a_worlds_queries_in_one_call_are_pymunks(index: int) -> None:
+    """segment_fractions and sight_lines answer many queries from one origin in one
+    call, bit for bit as pymunk answers each: against all the leaves, and against the
+    near leaves for queries no longer than the reach (the sensors' use); only the
+    first k sight lines are written, each skipping its own post (or none)."""
+    layout = LAYOUTS[index]
+    g = set_world(empty_geometry(1), 0, layout, WALL)
+    space = space_of(layout)
+    posts = layout.landmark_array()
+    rng = np.random.default_rng(700 + index)
+    for _ in range(40):
+        x, y = rng.uniform(0.2, (layout.width - 0.2, layout.height - 0.2)).tolist()
+        reach = float(rng.uniform(0.5, 6.0))
+        q = int(rng.integers(1, 20))
+        heading = rng.uniform(-math.pi, math.pi, q)
+        length = reach * rng.uniform(0.0, 1.0, q)
+        segments = np.stack(
+            [
+                np.full(q, x),
+                np.full(q, y),
+                x + length * np.cos(heading),
+                y + length * np.sin(heading),
+            ],
+            axis=1,
+        )
+        skips = np.full(q, -1)
+        if len(posts):  # about half the sight lines end on a post, skipping it
+            on_post = np.flatnonzero(rng.random(q) < 0.5)
+            skips[on_post] = rng.integers(0, len(posts), on_post.size)
+            segments[on_post, 2:] = posts[skips[on_post]]
+        targets = np.ascontiguousarray(segments[:, 2:])
+        reach = max(reach, float(np.hypot(*(targets - (x, y)).T).max()))
+        k = int(rng.integers(0, q + 1))
+        expected = np.array([pymunk_alpha(space, seg) for seg in segments.tolist()])
+        expected_clear = [
+            pymunk_alpha(space, seg, int(skip)) == 1.0
+            for seg, skip in zip(segments[:k].tolist(), skips[:k].tolist(), strict=True)
+        ]
+        for limit in (reach, math.inf):
+            fractions = np.full(q, -1.0)
+            clear = np.zeros(q, dtype=np.bool_)
+            sentinel = ~np.zeros(q - k, dtype=np.bool_)
+            clear[k:] = sentinel
+            _one_call(g, x, y, limit, segments, targets, skips, k, fractions, clear)
+            assert np.array_equal(fractions.view(np.uint64), expected.view(np.uint64))
+            assert clear[:k].tolist() == expected_clear
+            assert clear[k:].all()  # past k: left as they were
 
 
 @kernel
