@@ -158,8 +158,8 @@ def sight_lines(
         for i in range(count):
             node = leaves[i]
             shape = tree[b, node, 2]
-            if shape == skip_shape or _node_entry(boxes, b, node, ax, ay, bx, by) >= 1.0:
-                continue
+            if shape == skip_shape or not _node_entry(boxes, b, node, ax, ay, bx, by) < 1.0:
+                continue  # its box not entered before alpha 1 (as the C's test reads)
             if shape_alpha(g, b, shape, ax, ay, bx, by) < 1.0:
                 clear = False
                 break
