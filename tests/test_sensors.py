@@ -452,6 +452,21 @@ def test_max_detections_keeps_the_nearest_and_sorts_by_id():
     assert len(few.sense((0.0, 0.0, 0.0), pos, ids, RNG(0))) == 6
 
 
+def test_max_detections_keeps_the_nearest_by_true_range_in_the_cartesian_model():
+    """The cap ranks by the true range, not by the first measurement component (which
+    is the range only in the range-bearing model): landmarks far ahead but close in x
+    in the robot frame lose to near ones beside the robot."""
+    sensor = LandmarkSensor(
+        all_seeing(measurement_model="cartesian", cartesian_std=0.0, max_detections=2)
+    )
+    # robot frame = world frame (pose at the origin, heading 0): z = (x, y)
+    pos = np.array([[0.5, 6.0], [1.0, 0.0], [0.2, -5.0], [-1.5, 0.5]])
+    ids = np.array([0, 1, 2, 3])
+    det = sensor.sense((0.0, 0.0, 0.0), pos, ids, RNG(0))
+    assert det.ids.tolist() == [1, 3]  # ranges 1.0 and 1.58; z0 would pick 3 and 2
+    np.testing.assert_array_equal(det.z, pos[[1, 3]])
+
+
 def test_empty_result_has_the_right_shapes():
     sensor = LandmarkSensor(SensorConfig(max_range=1.0))
     det = sensor.sense((0.0, 0.0, 0.0), np.array([[5.0, 0.0]]), np.array([3]), RNG(0))
