@@ -292,6 +292,34 @@ def _halton_landmarks(
     )
 
 
+def _furnished(
+    name: str,
+    cfg: WorldConfig,
+    robot_radius: float,
+    preferred_start: Point,
+    boxes: Sequence[tuple[float, float, float, float]] = (),
+    walls: tuple[tuple[float, float, float, float], ...] = (),
+    keep_out: tuple[tuple[float, float, float], ...] = (),
+) -> Layout:
+    """Preset ``name`` from its obstacle ``boxes`` (cx, cy, w, h) and inner ``walls``:
+    the free start nearest ``preferred_start``, then the Halton landmarks clear of the
+    start and of the ``keep_out`` discs (x, y, radius)."""
+    parts = {
+        "width": cfg.width,
+        "height": cfg.height,
+        "landmark_ids": (),
+        "landmark_positions": (),
+        "obstacles": tuple(box_polygon(*b) for b in boxes),
+        "walls": walls,
+        "name": name,
+    }
+    start = _choose_start(parts, preferred_start, robot_radius, cfg.wall_thickness)
+    around_start = (start[0], start[1], robot_radius + LANDMARK_POST_RADIUS + START_MARGIN)
+    pts = _halton_landmarks(name, cfg, boxes, walls, (around_start, *keep_out))
+    parts.update(landmark_ids=tuple(range(len(pts))), landmark_positions=tuple(pts))
+    return Layout(start_pose=start, **parts)  # type: ignore[arg-type]
+
+
 def _open_preset(cfg: WorldConfig, robot_radius: float) -> Layout:
     W, H, n = cfg.width, cfg.height, cfg.n_landmarks
     need = _landmark_need(cfg)
@@ -358,21 +386,7 @@ def _cluttered_preset(cfg: WorldConfig, robot_radius: float) -> Layout:
     # Leave the lattice cell nearest the arena centre empty for the start.
     centre = (0.5 * W, 0.5 * H)
     boxes.pop(min(range(len(boxes)), key=lambda m: math.dist(centre, boxes[m][:2])))
-    obstacles = tuple(box_polygon(*b) for b in boxes)
-    parts = {"width": W, "height": H, "landmark_ids": (), "landmark_positions": ()}
-    parts.update(obstacles=obstacles, name="cluttered")
-    start = _choose_start(parts, centre, robot_radius, cfg.wall_thickness)
-    keep_out = ((start[0], start[1], robot_radius + LANDMARK_POST_RADIUS + START_MARGIN),)
-    pts = _halton_landmarks("cluttered", cfg, boxes, (), keep_out)
-    return Layout(
-        width=W,
-        height=H,
-        landmark_ids=tuple(range(len(pts))),
-        landmark_positions=tuple(pts),
-        obstacles=obstacles,
-        start_pose=start,
-        name="cluttered",
-    )
+    return _furnished("cluttered", cfg, robot_radius, centre, boxes=boxes)
 
 
 def _rooms_preset(cfg: WorldConfig, robot_radius: float) -> Layout:
@@ -409,22 +423,10 @@ def _rooms_preset(cfg: WorldConfig, robot_radius: float) -> Layout:
     for j in range(1, ny):  # horizontal walls
         for i in range(nx):
             wall_with_door(i * rw, (i + 1) * rw, j * rh, vertical=False)
-    walls_t = tuple(walls)
-    parts = {"width": W, "height": H, "landmark_ids": (), "landmark_positions": ()}
-    parts.update(walls=walls_t, name="rooms")
-    start = _choose_start(parts, (0.5 * rw, 0.5 * rh), robot_radius, t)
-    keep_out = [(start[0], start[1], robot_radius + LANDMARK_POST_RADIUS + START_MARGIN)]
     # Keep doorways clear: a post there would block the passage.
-    keep_out += [(x, y, door) for x, y in doors]
-    pts = _halton_landmarks("rooms", cfg, (), walls_t, keep_out)
-    return Layout(
-        width=W,
-        height=H,
-        landmark_ids=tuple(range(len(pts))),
-        landmark_positions=tuple(pts),
-        walls=walls_t,
-        start_pose=start,
-        name="rooms",
+    keep_out = tuple((x, y, door) for x, y in doors)
+    return _furnished(
+        "rooms", cfg, robot_radius, (0.5 * rw, 0.5 * rh), walls=tuple(walls), keep_out=keep_out
     )
 
 
