@@ -19,11 +19,10 @@ from slam_env.kernels.faults import (
     FAULT_UNIFORMS,
     KIDNAP_UNIFORM,
     FaultParams,
-    corrupt_odometry,
 )
 from slam_env.kernels.observe import RawOutputs, RawParams
-from slam_env.kernels.odometry import odometry_uniforms, read_odometry
-from slam_env.kernels.raw_step import sense_and_observe
+from slam_env.kernels.odometry import odometry_uniforms
+from slam_env.kernels.raw_step import read_and_sense, sense_and_observe
 from slam_env.kernels.sensing import SensorParams, scan_uniforms
 from slam_env.layouts import Layout
 from slam_env.random_blocks import RandomBlocks
@@ -234,29 +233,11 @@ class RawCore(BatchCore):
             self.control[b] = 0.0
             self.control_true[b] = 0.0
             touched[b] = True
-        uniforms = self.blocks.take(self.rngs, touched)
-        read_odometry(
-            before,
-            worlds.poses,
-            self.velocity_model,
-            self._noise,
-            uniforms,
-            0,
-            stepping,
-            self.control_true,
-            self.control,
-        )
-        if self.faults_on:
-            corrupt_odometry(
-                self._faults.odometry_dropout,
-                self._bias,
-                uniforms,
-                self._fault_offset,
-                stepping,
-                self.control,
-            )
-            self._kidnap(uniforms, stepping)
-        self._sense_and_observe(uniforms, touched, stepping)
+        kidnapping = self.faults_on and self.config.faults.kidnap_rate > 0.0
+        self._read_and_sense(before, touched, stepping, sense=not kidnapping)
+        if kidnapping:  # between the odometry reading and the scans, in Python
+            self._kidnap(self.blocks.uniforms, stepping)
+            self._sense_and_observe(self.blocks.uniforms, touched, stepping)
         out = self.out
         if self.config.terminate_when_all_detected:
             np.logical_and(out.all_seen, stepping, out=self.terminated)
@@ -275,11 +256,42 @@ class RawCore(BatchCore):
             for b in np.flatnonzero(events).tolist():
                 self.kidnapped[b] = self.worlds.kidnap(b, self.rngs[b])
 
+    def _read_and_sense(
+        self, before: np.ndarray, touched: np.ndarray, stepping: np.ndarray, sense: bool
+    ) -> None:
+        """The uniforms of the ``touched`` sub-envs, the odometry readings (and their
+        faults) of the ``stepping`` ones, and, if ``sense``, the scans and observations
+        (:func:`~slam_env.kernels.raw_step.read_and_sense`)."""
+        worlds = self.worlds
+        args = (
+            self.blocks.kernel_args,
+            (before, self.velocity_model, self._noise, self.control_true, self.control),
+            (self._faults.odometry_dropout, self._bias, self._fault_offset)
+            if self.faults_on
+            else None,
+            (worlds.poses, worlds.landmarks, worlds.landmark_ids, worlds.id_order),
+            tuple(worlds.geometry),
+            self._sensor_fields,
+            self._scan_offset,
+            touched,
+            (self.det_z, self.det_ids, self.det_rows, self.det_count),
+            (self._fault_fields, self._fault_offset) if self.faults_on else None,
+            stepping,
+            (self._beam_angles, self._scan_reach, self.scan),
+            self.collided,
+            self.seen,
+            self._params_fields,
+            self._out_fields,
+            sense,
+        )
+        while n := read_and_sense(*args):  # blocks used up: nothing done yet
+            self.blocks.refill(n, self.rngs)
+
     def _sense_and_observe(
         self, uniforms: np.ndarray, touched: np.ndarray, stepping: np.ndarray
     ) -> None:
         """The scans and observations of the ``touched`` worlds; the faults, if any, on
-        the scans of the ``stepping`` ones."""
+        the scans of the ``stepping`` ones (after a kidnapping)."""
         worlds = self.worlds
         sense_and_observe(
             (worlds.poses, worlds.landmarks, worlds.landmark_ids, worlds.id_order),
@@ -289,7 +301,7 @@ class RawCore(BatchCore):
             self._scan_offset,
             touched,
             (self.det_z, self.det_ids, self.det_rows, self.det_count),
-            (self._fault_fields, self._fault_offset) if self.faults_on else None,
+            (self._fault_fields, self._fault_offset),
             stepping,
             (self._beam_angles, self._scan_reach, self.scan),
             (self.control, self.collided),

@@ -24,7 +24,8 @@ class WorldBatch:
 
     A fixed world (a preset or a user layout) is built once and shared by every
     sub-env; with ``preset="random"`` each reset draws a new world from the sub-env's
-    generator.
+    generator. Each sub-env keeps one :class:`~slam_env.world.World`, relaid at its
+    resets (:meth:`World.relayout`: the same object, the new episode's world).
     """
 
     def __init__(self, config: EnvConfig, num_envs: int) -> None:
@@ -58,16 +59,20 @@ class WorldBatch:
         cfg = self.config
         layout = self.fixed_layout or layout_for(cfg, rng=rng)
         # layout_for validated the layout for this robot and wall thickness.
-        world = World(
-            layout,
-            cfg.robot,
-            cfg.dt,
-            cfg.physics_substeps,
-            cfg.world.wall_thickness,
-            validated=True,
-        )
-        self.worlds[index] = world
-        world._use_rows(self.poses[index : index + 1], self.disks[index : index + 1])
+        world = self.worlds[index]
+        if world is None:
+            world = World(
+                layout,
+                cfg.robot,
+                cfg.dt,
+                cfg.physics_substeps,
+                cfg.world.wall_thickness,
+                validated=True,
+            )
+            self.worlds[index] = world
+            world._use_rows(self.poses[index : index + 1], self.disks[index : index + 1])
+        else:
+            world.relayout(layout)
         self.landmarks[index] = world.landmark_positions
         ids = world.landmark_ids
         self.landmark_ids[index] = ids

@@ -1,18 +1,76 @@
-"""What the raw step of B worlds senses and reports once their robots have moved, in
-one kernel call (see :class:`slam_env.raw_core.RawCore`): the landmark scan, its
-faults, the proximity scan and the raw observation. They chain the kernels of
-:mod:`~slam_env.kernels.sensing`, :mod:`~slam_env.kernels.faults` and
-:mod:`~slam_env.kernels.observe`; as one call, a batch of one pays numba's dispatch
-once, and each array is passed once."""
+"""What the raw step of B worlds reads and senses once their robots have moved, in
+one kernel call (see :class:`slam_env.raw_core.RawCore`): the step's uniforms, the
+odometry reading, the landmark scan, its faults, the proximity scan and the raw
+observation. They chain the kernels of :mod:`~slam_env.random_blocks`,
+:mod:`~slam_env.kernels.odometry`, :mod:`~slam_env.kernels.sensing`,
+:mod:`~slam_env.kernels.faults` and :mod:`~slam_env.kernels.observe`; as one call, a
+batch of one pays numba's dispatch once, and each array is passed once."""
 
 from __future__ import annotations
 
 import numpy as np
 
 from slam_env.kernels import kernel
-from slam_env.kernels.faults import corrupt_scans
+from slam_env.kernels.faults import corrupt_odometry, corrupt_scans
 from slam_env.kernels.observe import observe_raw
+from slam_env.kernels.odometry import read_odometry
 from slam_env.kernels.sensing import proximity_scan, sense_landmarks
+from slam_env.random_blocks import take_rows, used_up_rows
+
+
+@kernel
+def read_and_sense(
+    random_blocks: tuple,
+    odometry: tuple,
+    odometry_faults: tuple | None,
+    worlds: tuple,
+    geometry_fields: tuple,
+    sensor_fields: tuple,
+    scan_offset: int,
+    touched: np.ndarray,
+    detections: tuple,
+    faults: tuple | None,
+    stepping: np.ndarray,
+    beams: tuple,
+    collided: np.ndarray,
+    seen: np.ndarray,
+    params_fields: tuple,
+    out_fields: tuple,
+    sense: bool,
+) -> int:
+    """The step of each ``touched`` world once the robots have moved: its uniforms
+    (the next row of its block), the odometry reading of each ``stepping`` one, then,
+    if ``sense``, :func:`sense_and_observe`. A world whose block is used up stops the
+    call before anything is done: it returns how many there are, listed in the blocks'
+    ``used_up``, for the caller to refill them and call again; else 0.
+
+    ``random_blocks``: ``(blocks, cursor, uniforms, used_up)`` of
+    :class:`~slam_env.random_blocks.RandomBlocks`; ``odometry``: ``(before,
+    velocity_model, noise, control_true, control)``, ``before`` the poses before the
+    move (those after are the first of ``worlds``), as
+    :func:`~slam_env.kernels.odometry.read_odometry` takes them; ``odometry_faults``:
+    None, or ``(dropout, bias, offset)`` of
+    :func:`~slam_env.kernels.faults.corrupt_odometry`; the rest as
+    :func:`sense_and_observe` takes it (its ``readings`` are ``control`` and
+    ``collided``)."""
+    blocks, cursor, uniforms, used_up = random_blocks
+    n = used_up_rows(blocks, cursor, touched, used_up)
+    if n:
+        return n
+    take_rows(blocks, cursor, touched, uniforms)
+    before, velocity_model, noise, control_true, control = odometry
+    read_odometry(
+        before, worlds[0], velocity_model, noise, uniforms, 0, stepping, control_true, control
+    )
+    if odometry_faults is not None:
+        dropout, bias, fault_offset = odometry_faults
+        corrupt_odometry(dropout, bias, uniforms, fault_offset, stepping, control)
+    if sense:
+        sense_and_observe(
+            worlds, geometry_fields, sensor_fields, uniforms, scan_offset, touched, detections,
+            faults, stepping, beams, (control, collided), seen, params_fields, out_fields,
+        )  # fmt: skip
+    return 0
 
 
 @kernel
