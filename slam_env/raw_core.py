@@ -210,6 +210,43 @@ class RawCore(BatchCore):
         self._fault_fields = tuple(self._faults)
         self._params_fields = tuple(self._params)
         self._out_fields = tuple(self.out)  # the active mask of one sub-env
+        self._views: dict[int, tuple[dict[str, np.ndarray], dict[str, np.ndarray]]] = {}
+
+    # Views of one sub-env's rows (see _row_views): never pickled, as a view would come
+    # back as a copy, detached from the arrays.
+    def __getstate__(self) -> dict[str, Any]:
+        return {k: v for k, v in self.__dict__.items() if k != "_views"}
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        self.__dict__.update(state)
+        self._views = {}
+
+    def _row_views(self, index: int) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray]]:
+        """Views of sub-env ``index``'s rows of what :meth:`observation` and :meth:`info`
+        copy out, made at the first call for ``index`` (taking a row costs about as
+        much as copying it)."""
+        views = self._views.get(index)
+        if views is None:
+            out, worlds = self.out, self.worlds
+            obs = {
+                "odometry": out.odometry[index],
+                "detections": out.detections[index],
+                "ids": out.ids[index],
+                "mask": out.mask[index],
+            }
+            if self._beam_angles.size:
+                obs["scan"] = self.scan[index]
+            if self.config.sensor.bumper:
+                obs["bumper"] = out.bumper[index]
+            info = {
+                "pose": worlds.poses[index],
+                "landmark_positions": worlds.landmarks[index],
+                "landmark_ids": worlds.landmark_ids[index],
+                "seen": self.seen[index],
+                "odometry_true": self.control_true[index],
+            }
+            views = self._views[index] = (obs, info)
+        return views
 
     # ------------------------------------------------------------------ stepping
     def advance(
@@ -323,18 +360,7 @@ class RawCore(BatchCore):
     # ------------------------------------------------------------------ reading
     def observation(self, index: int) -> dict[str, np.ndarray]:
         """Sub-env ``index``'s observation, fresh arrays."""
-        out = self.out
-        obs = {
-            "odometry": out.odometry[index].copy(),
-            "detections": out.detections[index].copy(),
-            "ids": out.ids[index].copy(),
-            "mask": out.mask[index].copy(),
-        }
-        if self._beam_angles.size:
-            obs["scan"] = self.scan[index].copy()
-        if self.config.sensor.bumper:
-            obs["bumper"] = out.bumper[index].copy()
-        return obs
+        return {key: row.copy() for key, row in self._row_views(index)[0].items()}
 
     def observations(self) -> dict[str, np.ndarray]:
         """Every sub-env's observation, stacked (B, …), fresh arrays."""
@@ -381,22 +407,23 @@ class RawCore(BatchCore):
 
     def info(self, index: int) -> dict[str, Any]:
         """Sub-env ``index``'s info (the ground truth), fresh objects."""
-        worlds = self.worlds
+        rows = self._row_views(index)[1]
+        out = self.out
         info = {
-            "pose": worlds.poses[index].copy(),
-            "landmark_positions": worlds.landmarks[index].copy(),
-            "landmark_ids": worlds.landmark_ids[index].copy(),
-            "collision": bool(self.collided[index]),
+            "pose": rows["pose"].copy(),
+            "landmark_positions": rows["landmark_positions"].copy(),
+            "landmark_ids": rows["landmark_ids"].copy(),
+            "collision": self.collided.item(index),
             # Fixed size (one entry per landmark ID), so that vector envs stack it.
-            "seen": self.seen[index].copy(),
-            "odometry_true": self.control_true[index].copy(),
+            "seen": rows["seen"].copy(),
+            "odometry_true": rows["odometry_true"].copy(),
             "reward_terms": {
-                "new_landmarks": float(self.out.new_terms[index]),
-                "collision": float(self.out.collision_terms[index]),
+                "new_landmarks": out.new_terms.item(index),
+                "collision": out.collision_terms.item(index),
             },
         }
         if self.faults_on:
-            info["kidnapped"] = bool(self.kidnapped[index])
+            info["kidnapped"] = self.kidnapped.item(index)
         if self.reports_truth:
             info["detection_ids"] = self.detection_ids(index)
         return info
