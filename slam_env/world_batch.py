@@ -58,7 +58,7 @@ class WorldBatch:
         """A new episode's world for sub-env ``index`` (drawn from ``rng`` when random)."""
         cfg = self.config
         layout = self.fixed_layout or layout_for(cfg, rng=rng)
-        # layout_for validated the layout for this robot and wall thickness.
+        # layout_for's worlds are valid for this robot and wall thickness.
         world = self.worlds[index]
         if world is None:
             world = World(
