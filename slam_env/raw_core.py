@@ -211,6 +211,8 @@ class RawCore(BatchCore):
         self._params_fields = tuple(self._params)
         self._out_fields = tuple(self.out)  # the active mask of one sub-env
         self._views: dict[int, tuple[dict[str, np.ndarray], dict[str, np.ndarray]]] = {}
+        self._touched = np.zeros(b, dtype=bool)  # the sub-envs a step moves or resets
+        self._sense_args: tuple[Any, ...] = ()  # read_and_sense's, up to `stepping`
 
     # Views of one sub-env's rows (see _row_views): never pickled, as a view would come
     # back as a copy, detached from the arrays.
@@ -258,8 +260,9 @@ class RawCore(BatchCore):
         same kernel calls. A reset scan has no faults and pays nothing. Returns the new
         episodes' layouts, in the order of ``resetting``."""
         worlds = self.worlds
-        before = worlds.move(commands, stepping, self.collided)
-        touched = stepping.copy()
+        worlds.move(commands, stepping, self.collided)
+        touched = self._touched
+        np.copyto(touched, stepping)
         layouts = []
         for b in resetting:
             layouts.append(worlds.reset(b, self.rngs[b]))
@@ -271,7 +274,7 @@ class RawCore(BatchCore):
             self.control_true[b] = 0.0
             touched[b] = True
         kidnapping = self.faults_on and self.config.faults.kidnap_rate > 0.0
-        self._read_and_sense(before, touched, stepping, sense=not kidnapping)
+        self._read_and_sense(stepping, sense=not kidnapping)
         if kidnapping:  # between the odometry reading and the scans, in Python
             self._kidnap(self.blocks.uniforms, stepping)
             self._sense_and_observe(self.blocks.uniforms, touched, stepping)
@@ -293,35 +296,33 @@ class RawCore(BatchCore):
             for b in np.flatnonzero(events).tolist():
                 self.kidnapped[b] = self.worlds.kidnap(b, self.rngs[b])
 
-    def _read_and_sense(
-        self, before: np.ndarray, touched: np.ndarray, stepping: np.ndarray, sense: bool
-    ) -> None:
-        """The uniforms of the ``touched`` sub-envs, the odometry readings (and their
-        faults) of the ``stepping`` ones, and, if ``sense``, the scans and observations
+    def _read_and_sense(self, stepping: np.ndarray, sense: bool) -> None:
+        """The uniforms of the touched sub-envs, the odometry readings (and their faults)
+        of the ``stepping`` ones, and, if ``sense``, the scans and observations
         (:func:`~slam_env.kernels.raw_step.read_and_sense`)."""
         worlds = self.worlds
-        args = (
-            self.blocks.kernel_args,
-            (before, self.velocity_model, self._noise, self.control_true, self.control),
-            (self._faults.odometry_dropout, self._bias, self._fault_offset)
-            if self.faults_on
-            else None,
-            (worlds.poses, worlds.landmarks, worlds.landmark_ids, worlds.id_order),
-            tuple(worlds.geometry),
-            self._sensor_fields,
-            self._scan_offset,
-            touched,
-            (self.det_z, self.det_ids, self.det_rows, self.det_count),
-            (self._fault_fields, self._fault_offset) if self.faults_on else None,
-            stepping,
-            (self._beam_angles, self._scan_reach, self.scan),
-            self.collided,
-            self.seen,
-            self._params_fields,
-            self._out_fields,
-            sense,
-        )
-        while n := read_and_sense(*args):  # blocks used up: nothing done yet
+        args = self._sense_args
+        if not args or args[4] is not worlds.geometry_fields:  # a reset replaced them
+            args = self._sense_args = (
+                self.blocks.kernel_args,
+                (worlds.before, self.velocity_model, self._noise, self.control_true, self.control),
+                (self._faults.odometry_dropout, self._bias, self._fault_offset)
+                if self.faults_on
+                else None,
+                (worlds.poses, worlds.landmarks, worlds.landmark_ids, worlds.id_order),
+                worlds.geometry_fields,
+                self._sensor_fields,
+                self._scan_offset,
+                self._touched,
+                (self.det_z, self.det_ids, self.det_rows, self.det_count),
+                (self._fault_fields, self._fault_offset) if self.faults_on else None,
+                (self._beam_angles, self._scan_reach, self.scan),
+                self.collided,
+                self.seen,
+                self._params_fields,
+                self._out_fields,
+            )
+        while n := read_and_sense(*args, stepping, sense):  # blocks used up: nothing done
             self.blocks.refill(n, self.rngs)
 
     def _sense_and_observe(
@@ -332,7 +333,7 @@ class RawCore(BatchCore):
         worlds = self.worlds
         sense_and_observe(
             (worlds.poses, worlds.landmarks, worlds.landmark_ids, worlds.id_order),
-            tuple(worlds.geometry),
+            worlds.geometry_fields,
             self._sensor_fields,
             uniforms,
             self._scan_offset,

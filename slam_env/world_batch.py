@@ -47,12 +47,14 @@ class WorldBatch:
         n = self.n_landmarks
         self.worlds: list[World | None] = [None] * num_envs
         self.poses = np.zeros((num_envs, 3))
+        self.before = np.zeros((num_envs, 3))  # the poses before the last move
         self.disks = np.zeros((num_envs, 3))
         self._drive = Drive(num_envs, config.robot.radius, config.dt, config.physics_substeps)
         self.landmarks = np.zeros((num_envs, n, 2))
         self.landmark_ids = np.zeros((num_envs, n), dtype=np.int64)
         self.id_order = np.tile(np.arange(n, dtype=np.int64), (num_envs, 1))
         self.geometry: StaticGeometry = empty_geometry(num_envs)
+        self.geometry_fields = tuple(self.geometry)  # as the kernels take it
 
     def reset(self, index: int, rng: np.random.Generator) -> Layout:
         """A new episode's world for sub-env ``index`` (drawn from ``rng`` when random)."""
@@ -77,14 +79,19 @@ class WorldBatch:
         ids = world.landmark_ids
         self.landmark_ids[index] = ids
         self.id_order[index] = np.argsort(ids, kind="stable")
-        self.geometry = set_world(self.geometry, index, layout, cfg.world.wall_thickness)
+        geometry = set_world(self.geometry, index, layout, cfg.world.wall_thickness)
+        if geometry is not self.geometry:  # grown: new arrays
+            self.geometry = geometry
+            self.geometry_fields = tuple(geometry)
         return layout
 
     def move(self, commands: np.ndarray, active: np.ndarray, collided: np.ndarray) -> np.ndarray:
         """Drive each ``active`` ((B,) bool) robot by its row of ``commands`` ((B, 2)
         float64, finite: speed m/s, turn rate rad/s) for one step, its collision flag
-        into ``collided`` (B,). Returns the poses before the step."""
-        before = self.poses.copy()
+        into ``collided`` (B,). Returns the poses before the step (:attr:`before`, which
+        the next call overwrites)."""
+        before = self.before
+        np.copyto(before, self.poses)
         drive = self._drive
         flagged = drive(self.poses, self.disks, commands, active, collided)
         if flagged:

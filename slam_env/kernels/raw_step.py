@@ -30,12 +30,12 @@ def read_and_sense(
     touched: np.ndarray,
     detections: tuple,
     faults: tuple | None,
-    stepping: np.ndarray,
     beams: tuple,
     collided: np.ndarray,
     seen: np.ndarray,
     params_fields: tuple,
     out_fields: tuple,
+    stepping: np.ndarray,
     sense: bool,
 ) -> int:
     """The step of each ``touched`` world once the robots have moved: its uniforms
