@@ -22,7 +22,7 @@ from slam_env.kernels.faults import (
 )
 from slam_env.kernels.observe import RawOutputs, RawParams
 from slam_env.kernels.odometry import odometry_uniforms
-from slam_env.kernels.raw_step import read_and_sense, sense_and_observe
+from slam_env.kernels.raw_step import read_and_sense
 from slam_env.kernels.sensing import SensorParams, scan_uniforms
 from slam_env.layouts import Layout
 from slam_env.random_blocks import RandomBlocks
@@ -273,11 +273,13 @@ class RawCore(BatchCore):
             self.control[b] = 0.0
             self.control_true[b] = 0.0
             touched[b] = True
-        kidnapping = self.faults_on and self.config.faults.kidnap_rate > 0.0
-        self._read_and_sense(stepping, sense=not kidnapping)
-        if kidnapping:  # between the odometry reading and the scans, in Python
+        if self.faults_on and self.config.faults.kidnap_rate > 0.0:
+            # The kidnapping comes between the odometry reading and the scans.
+            self._read_and_sense(stepping, read=True, sense=False)
             self._kidnap(self.blocks.uniforms, stepping)
-            self._sense_and_observe(self.blocks.uniforms, touched, stepping)
+            self._read_and_sense(stepping, read=False, sense=True)
+        else:
+            self._read_and_sense(stepping, read=True, sense=True)
         out = self.out
         if self.config.terminate_when_all_detected:
             np.logical_and(out.all_seen, stepping, out=self.terminated)
@@ -296,10 +298,10 @@ class RawCore(BatchCore):
             for b in np.flatnonzero(events).tolist():
                 self.kidnapped[b] = self.worlds.kidnap(b, self.rngs[b])
 
-    def _read_and_sense(self, stepping: np.ndarray, sense: bool) -> None:
-        """The uniforms of the touched sub-envs, the odometry readings (and their faults)
-        of the ``stepping`` ones, and, if ``sense``, the scans and observations
-        (:func:`~slam_env.kernels.raw_step.read_and_sense`)."""
+    def _read_and_sense(self, stepping: np.ndarray, read: bool, sense: bool) -> None:
+        """If ``read``, the uniforms of the touched sub-envs and the odometry readings
+        (and their faults) of the ``stepping`` ones; if ``sense``, the scans and
+        observations (:func:`~slam_env.kernels.raw_step.read_and_sense`)."""
         worlds = self.worlds
         args = self._sense_args
         if not args or args[4] is not worlds.geometry_fields:  # a reset replaced them
@@ -322,31 +324,8 @@ class RawCore(BatchCore):
                 self._params_fields,
                 self._out_fields,
             )
-        while n := read_and_sense(*args, stepping, sense):  # blocks used up: nothing done
+        while n := read_and_sense(*args, stepping, read, sense):  # blocks used up: none done
             self.blocks.refill(n, self.rngs)
-
-    def _sense_and_observe(
-        self, uniforms: np.ndarray, touched: np.ndarray, stepping: np.ndarray
-    ) -> None:
-        """The scans and observations of the ``touched`` worlds; the faults, if any, on
-        the scans of the ``stepping`` ones (after a kidnapping)."""
-        worlds = self.worlds
-        sense_and_observe(
-            (worlds.poses, worlds.landmarks, worlds.landmark_ids, worlds.id_order),
-            worlds.geometry_fields,
-            self._sensor_fields,
-            uniforms,
-            self._scan_offset,
-            touched,
-            (self.det_z, self.det_ids, self.det_rows, self.det_count),
-            (self._fault_fields, self._fault_offset),
-            stepping,
-            (self._beam_angles, self._scan_reach, self.scan),
-            (self.control, self.collided),
-            self.seen,
-            self._params_fields,
-            self._out_fields,
-        )
 
     @property
     def beam_angles(self) -> np.ndarray:

@@ -36,13 +36,15 @@ def read_and_sense(
     params_fields: tuple,
     out_fields: tuple,
     stepping: np.ndarray,
+    read: bool,
     sense: bool,
 ) -> int:
-    """The step of each ``touched`` world once the robots have moved: its uniforms
-    (the next row of its block), the odometry reading of each ``stepping`` one, then,
-    if ``sense``, :func:`sense_and_observe`. A world whose block is used up stops the
-    call before anything is done: it returns how many there are, listed in the blocks'
-    ``used_up``, for the caller to refill them and call again; else 0.
+    """The step of each ``touched`` world once the robots have moved: if ``read``, its
+    uniforms (the next row of its block) and the odometry reading of each ``stepping``
+    one; then, if ``sense``, :func:`sense_and_observe` (a kidnapping comes between the
+    two, in Python). A world whose block is used up stops the call before anything is
+    done: it returns how many there are, listed in the blocks' ``used_up``, for the
+    caller to refill them and call again; else 0.
 
     ``random_blocks``: ``(blocks, cursor, uniforms, used_up)`` of
     :class:`~slam_env.random_blocks.RandomBlocks`; ``odometry``: ``(before,
@@ -54,17 +56,18 @@ def read_and_sense(
     :func:`sense_and_observe` takes it (its ``readings`` are ``control`` and
     ``collided``)."""
     blocks, cursor, uniforms, used_up = random_blocks
-    n = used_up_rows(blocks, cursor, touched, used_up)
-    if n:
-        return n
-    take_rows(blocks, cursor, touched, uniforms)
     before, velocity_model, noise, control_true, control = odometry
-    read_odometry(
-        before, worlds[0], velocity_model, noise, uniforms, 0, stepping, control_true, control
-    )
-    if odometry_faults is not None:
-        dropout, bias, fault_offset = odometry_faults
-        corrupt_odometry(dropout, bias, uniforms, fault_offset, stepping, control)
+    if read:
+        n = used_up_rows(blocks, cursor, touched, used_up)
+        if n:
+            return n
+        take_rows(blocks, cursor, touched, uniforms)
+        read_odometry(
+            before, worlds[0], velocity_model, noise, uniforms, 0, stepping, control_true, control
+        )
+        if odometry_faults is not None:
+            dropout, bias, fault_offset = odometry_faults
+            corrupt_odometry(dropout, bias, uniforms, fault_offset, stepping, control)
     if sense:
         sense_and_observe(
             worlds, geometry_fields, sensor_fields, uniforms, scan_offset, touched, detections,
