@@ -66,7 +66,7 @@ class RandomBlocks:
     @property
     def kernel_args(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """``(blocks, cursor, uniforms, used_up)``: the blocks as
-        :func:`~slam_env.kernels.raw_step.read_and_sense` takes them; it writes the
+        :func:`~slam_env.kernels.raw_step.raw_step` takes them; it writes the
         step's uniforms ((B, width); stale rows for inactive sub-envs) into
         ``uniforms``, or lists the sub-envs whose block is used up in ``used_up``."""
         return (self._blocks, self._cursor, self._uniforms, self._used_up)

@@ -22,7 +22,7 @@ from slam_env.kernels.faults import (
 )
 from slam_env.kernels.observe import RawOutputs, RawParams
 from slam_env.kernels.odometry import odometry_uniforms
-from slam_env.kernels.raw_step import read_and_sense
+from slam_env.kernels.raw_step import MOTION_FLAGGED, raw_step
 from slam_env.kernels.sensing import SensorParams, scan_uniforms
 from slam_env.layouts import Layout
 from slam_env.random_blocks import RandomBlocks
@@ -212,7 +212,7 @@ class RawCore(BatchCore):
         self._out_fields = tuple(self.out)  # the active mask of one sub-env
         self._views: dict[int, tuple[dict[str, np.ndarray], dict[str, np.ndarray]]] = {}
         self._touched = np.zeros(b, dtype=bool)  # the sub-envs a step moves or resets
-        self._sense_args: tuple[Any, ...] = ()  # read_and_sense's, up to `stepping`
+        self._step_args: tuple[Any, ...] = ()  # raw_step's, from the blocks to `out_fields`
 
     # Views of one sub-env's rows (see _row_views): never pickled, as a view would come
     # back as a copy, detached from the arrays.
@@ -260,7 +260,6 @@ class RawCore(BatchCore):
         same kernel calls. A reset scan has no faults and pays nothing. Returns the new
         episodes' layouts, in the order of ``resetting``."""
         worlds = self.worlds
-        worlds.move(commands, stepping, self.collided)
         touched = self._touched
         np.copyto(touched, stepping)
         layouts = []
@@ -273,13 +272,14 @@ class RawCore(BatchCore):
             self.control[b] = 0.0
             self.control_true[b] = 0.0
             touched[b] = True
+        # The resets first (their robots do not move), then the step in one kernel call.
         if self.faults_on and self.config.faults.kidnap_rate > 0.0:
             # The kidnapping comes between the odometry reading and the scans.
-            self._read_and_sense(stepping, read=True, sense=False)
+            self._raw_step(commands, stepping, read=True, sense=False)
             self._kidnap(self.blocks.uniforms, stepping)
-            self._read_and_sense(stepping, read=False, sense=True)
+            self._raw_step(commands, stepping, read=False, sense=True)
         else:
-            self._read_and_sense(stepping, read=True, sense=True)
+            self._raw_step(commands, stepping, read=True, sense=True)
         out = self.out
         if self.config.terminate_when_all_detected:
             np.logical_and(out.all_seen, stepping, out=self.terminated)
@@ -298,14 +298,18 @@ class RawCore(BatchCore):
             for b in np.flatnonzero(events).tolist():
                 self.kidnapped[b] = self.worlds.kidnap(b, self.rngs[b])
 
-    def _read_and_sense(self, stepping: np.ndarray, read: bool, sense: bool) -> None:
-        """If ``read``, the uniforms of the touched sub-envs and the odometry readings
-        (and their faults) of the ``stepping`` ones; if ``sense``, the scans and
-        observations (:func:`~slam_env.kernels.raw_step.read_and_sense`)."""
+    def _raw_step(
+        self, commands: np.ndarray, stepping: np.ndarray, read: bool, sense: bool
+    ) -> None:
+        """If ``read``, the motion of the ``stepping`` robots by ``commands``, the uniforms
+        of the touched sub-envs and the odometry readings (and their faults) of the
+        stepping ones; if ``sense``, the scans and observations: one call of
+        :func:`~slam_env.kernels.raw_step.raw_step`, and more only where it stops for
+        Python."""
         worlds = self.worlds
-        args = self._sense_args
+        args = self._step_args
         if not args or args[4] is not worlds.geometry_fields:  # a reset replaced them
-            args = self._sense_args = (
+            args = self._step_args = (
                 self.blocks.kernel_args,
                 (worlds.before, self.velocity_model, self._noise, self.control_true, self.control),
                 (self._faults.odometry_dropout, self._bias, self._fault_offset)
@@ -324,8 +328,16 @@ class RawCore(BatchCore):
                 self._params_fields,
                 self._out_fields,
             )
-        while n := read_and_sense(*args, stepping, read, sense):  # blocks used up: none done
-            self.blocks.refill(n, self.rngs)
+        motion = worlds.motion_args(commands) if read else None
+        while stopped := raw_step(motion, *args, stepping, read, sense):
+            if stopped > 0:  # blocks used up: nothing done yet
+                self.blocks.refill(stopped, self.rngs)
+            elif stopped == MOTION_FLAGGED:  # moved, but for these robots' queries
+                worlds.settle(self.collided)
+                motion = None
+            else:  # a command that needs more moves than the buffer holds: nothing done
+                worlds.make_room(-stopped, commands, stepping)
+                motion = worlds.motion_args(commands)
 
     @property
     def beam_angles(self) -> np.ndarray:

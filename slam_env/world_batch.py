@@ -90,15 +90,34 @@ class WorldBatch:
         float64, finite: speed m/s, turn rate rad/s) for one step, its collision flag
         into ``collided`` (B,). Returns the poses before the step (:attr:`before`, which
         the next call overwrites)."""
-        before = self.before
-        np.copyto(before, self.poses)
+        np.copyto(self.before, self.poses)
+        self._drive(self.poses, self.disks, commands, active, collided)
+        self.settle(collided)
+        return self.before
+
+    def motion_args(self, commands: np.ndarray) -> tuple[Any, ...]:
+        """The motion of ``commands`` ((B, 2) float64) as
+        :func:`slam_env.kernels.raw_step.raw_step` takes it: after
+        :data:`~slam_env.kernels.raw_step.MOTION_FLAGGED`, :meth:`settle` the robots it
+        flagged; after a shortage of moves, :meth:`make_room` and new arguments."""
         drive = self._drive
-        flagged = drive(self.poses, self.disks, commands, active, collided)
-        if flagged:
-            worlds, moves, counts, reaches = self.worlds, drive.moves, drive.counts, drive.reaches
-            for b in flagged:
-                collided[b] = worlds[b]._settle(moves[b, : counts[b]], float(reaches[b]))
-        return before
+        return (
+            commands, self.disks, drive.radius, drive.dt, drive.substeps, drive.moves,
+            drive.counts, drive.reaches,
+        )  # fmt: skip
+
+    def make_room(self, needed: int, commands: np.ndarray, active: np.ndarray) -> None:
+        """Room for ``needed`` moves a robot (see :meth:`slam_env.drive.Drive.make_room`:
+        ``ValueError`` if too many)."""
+        self._drive.make_room(needed, commands, active)
+
+    def settle(self, collided: np.ndarray) -> None:
+        """Settle the robots the motion kernel flagged with clearance queries, each
+        one's collision flag into ``collided``."""
+        drive = self._drive
+        for b in drive.flagged():
+            moves = drive.moves[b, : drive.counts[b]]
+            collided[b] = self.worlds[b]._settle(moves, float(drive.reaches[b]))
 
     def __setstate__(self, state: dict[str, Any]) -> None:
         # A copy's worlds hold copies of their rows: give them the copy's own.
