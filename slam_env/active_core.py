@@ -125,6 +125,19 @@ class ActiveCore(BatchCore):
         self.in_a_row = np.zeros(b, dtype=np.int64)
         self.updated = np.zeros(b, dtype=bool)
         self._counted = np.zeros(b, dtype=bool)  # the updates that succeeded
+        self._touched = np.zeros(b, dtype=bool)  # the sub-envs a step moves or resets
+        # filter_step's arguments but the masks and the workspaces (which grow), once:
+        # the arrays never change, and building the tuples cost as much as the call.
+        out, filters = raw.out, self.filters
+        self._filter_inputs = (
+            (out.odometry, out.detections, out.ids, raw.det_count, raw.det_ids),
+            not self.associates,
+        )
+        self._filter_state = (filters.storage, filters.config, filters.u, filters.correction_io)
+        self._filter_books = (
+            (self.updated, self.failed, self._counted, self.in_a_row),
+            (self.slot_truth, self._n_before, self.score_step, self.score_episode),
+        )
         self.diagnostics = np.zeros((len(DIAGNOSTICS), b))
         self.entropy = np.zeros(b)
         self._entropy_ok = np.zeros(b, dtype=bool)
@@ -181,7 +194,8 @@ class ActiveCore(BatchCore):
         measured from it."""
         raw, filters = self.raw, self.filters
         layouts = raw.advance(commands, stepping, resetting)
-        touched = stepping.copy()
+        touched = self._touched
+        np.copyto(touched, stepping)
         worlds = raw.worlds
         for b in resetting:
             self.truth[b] = np.nan
@@ -196,22 +210,10 @@ class ActiveCore(BatchCore):
             if self._local is not None:
                 self._encoding.reset(b)
             touched[b] = True
-        out = raw.out
-        filtering = (
-            (out.odometry, out.detections, out.ids, raw.det_count, raw.det_ids),
-            not self.associates,
-            touched,
-            stepping,
-            filters.storage,
-            filters.config,
-            filters.u,
-            filters.correction_io,
-        )
-        bookkeeping = (self.updated, self.failed, self._counted, self.in_a_row)
-        scores = (self.slot_truth, self._n_before, self.score_step, self.score_episode)
-        if not filter_step(*filtering, filters.workspaces, self.associates, bookkeeping, scores):
+        filtering = (*self._filter_inputs, touched, stepping, *self._filter_state)
+        if not filter_step(*filtering, filters.workspaces, self.associates, *self._filter_books):
             filters.grow_for(self.updated)
-            filter_step(*filtering, filters.workspaces, self.associates, bookkeeping, scores)
+            filter_step(*filtering, filters.workspaces, self.associates, *self._filter_books)
         self._observe(touched, stepping)
         return layouts
 

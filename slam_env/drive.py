@@ -46,24 +46,28 @@ class Drive:
         ((B,) bool) becomes False for each.
         Returns the flagged robots, whose positions the caller settles. ``ValueError``,
         with nothing moved, if a speed would take more than :attr:`max_moves` moves."""
-        radius, dt, substeps = self.radius, self.dt, self.substeps
-        counts, reaches = self.counts, self.reaches
-        flagged = drive(
-            poses, disks, commands, active, radius, dt, substeps, self.moves, counts, reaches,
-            blocked,
-        )  # fmt: skip
-        if flagged < 0:  # more moves than the buffer holds: nothing moved yet
-            needed = -flagged
-            if needed > self.max_moves:
-                speeds = np.abs(commands[np.asarray(active, dtype=bool), 0])
-                raise ValueError(
-                    f"speed {speeds.max():g} m/s is too fast for a {dt:g} s step: it needs "
-                    f"more than {self.max_moves} moves of at most half the robot's radius "
-                    f"({radius:g} m); see slam_env.budget.MAX_MOVES_PER_STEP"
-                )
-            self.moves = np.zeros((self.moves.shape[0], needed, 2))
+        while True:
             flagged = drive(
-                poses, disks, commands, active, radius, dt, substeps, self.moves, counts,
-                reaches, blocked,
+                poses, disks, commands, active, self.radius, self.dt, self.substeps, self.moves,
+                self.counts, self.reaches, blocked,
             )  # fmt: skip
-        return np.flatnonzero(counts).tolist() if flagged else []
+            if flagged >= 0:
+                return self.flagged() if flagged else []
+            self.make_room(-flagged, commands, active)  # nothing moved yet
+
+    def flagged(self) -> list[int]:
+        """The robots the last call flagged."""
+        return np.flatnonzero(self.counts).tolist()
+
+    def make_room(self, needed: int, commands: np.ndarray, active: np.ndarray) -> None:
+        """Grow :attr:`moves` to ``needed`` moves a robot, which the kernel asked for
+        (refusing the call, nothing moved); ``ValueError`` if more than
+        :attr:`max_moves` (the fastest of the ``active`` robots' ``commands`` named)."""
+        if needed > self.max_moves:
+            speeds = np.abs(commands[np.asarray(active, dtype=bool), 0])
+            raise ValueError(
+                f"speed {speeds.max():g} m/s is too fast for a {self.dt:g} s step: it needs "
+                f"more than {self.max_moves} moves of at most half the robot's radius "
+                f"({self.radius:g} m); see slam_env.budget.MAX_MOVES_PER_STEP"
+            )
+        self.moves = np.zeros((self.moves.shape[0], needed, 2))

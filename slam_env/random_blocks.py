@@ -16,24 +16,27 @@ MAX_BLOCK_STEPS = 16
 
 
 @kernel
-def _take_rows(
-    blocks: np.ndarray, cursor: np.ndarray, active: np.ndarray, out: np.ndarray, used_up: np.ndarray
+def used_up_rows(
+    blocks: np.ndarray, cursor: np.ndarray, active: np.ndarray, used_up: np.ndarray
 ) -> int:
-    """Copy each active sub-env's next row of its block into ``out`` and advance its
-    cursor; a sub-env whose block is used up is skipped and listed in ``used_up``.
-    Returns how many were listed."""
+    """List in ``used_up`` the active sub-envs whose block is used up; return how many."""
     n = 0
     for b in range(blocks.shape[0]):
-        if not active[b]:
-            continue
-        row = cursor[b]
-        if row >= blocks.shape[1]:
+        if active[b] and cursor[b] >= blocks.shape[1]:
             used_up[n] = b
             n += 1
-            continue
-        out[b, :] = blocks[b, row, :]
-        cursor[b] = row + 1
     return n
+
+
+@kernel
+def take_rows(blocks: np.ndarray, cursor: np.ndarray, active: np.ndarray, out: np.ndarray) -> None:
+    """Copy each active sub-env's next row of its block into ``out`` and advance its
+    cursor (:func:`used_up_rows` lists none of them)."""
+    for b in range(blocks.shape[0]):
+        if active[b]:
+            row = cursor[b]
+            out[b, :] = blocks[b, row, :]
+            cursor[b] = row + 1
 
 
 class RandomBlocks:
@@ -60,14 +63,21 @@ class RandomBlocks:
         rng.random(out=self._blocks[index])
         self._cursor[index] = 0
 
-    def take(self, rngs: Sequence[np.random.Generator], active: np.ndarray) -> np.ndarray:
-        """This step's uniforms, (B, width), and advance the active sub-envs by one step.
-        Rows of inactive sub-envs are stale; the array is reused by the next call."""
-        n = _take_rows(self._blocks, self._cursor, active, self._uniforms, self._used_up)
-        if n:
-            refill = np.zeros_like(active)
-            for b in self._used_up[:n].tolist():
-                self.restart(b, rngs[b])
-                refill[b] = True
-            _take_rows(self._blocks, self._cursor, refill, self._uniforms, self._used_up)
+    @property
+    def kernel_args(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """``(blocks, cursor, uniforms, used_up)``: the blocks as
+        :func:`~slam_env.kernels.raw_step.raw_step` takes them; it writes the
+        step's uniforms ((B, width); stale rows for inactive sub-envs) into
+        ``uniforms``, or lists the sub-envs whose block is used up in ``used_up``."""
+        return (self._blocks, self._cursor, self._uniforms, self._used_up)
+
+    @property
+    def uniforms(self) -> np.ndarray:
+        """(B, width): the last step's uniforms (reused by the next step)."""
         return self._uniforms
+
+    def refill(self, n: int, rngs: Sequence[np.random.Generator]) -> None:
+        """Restart the first ``n`` sub-envs listed in ``used_up`` on fresh blocks, each
+        from its own generator in ``rngs``."""
+        for b in self._used_up[:n].tolist():
+            self.restart(b, rngs[b])

@@ -19,11 +19,10 @@ from slam_env.kernels.faults import (
     FAULT_UNIFORMS,
     KIDNAP_UNIFORM,
     FaultParams,
-    corrupt_odometry,
 )
 from slam_env.kernels.observe import RawOutputs, RawParams
-from slam_env.kernels.odometry import odometry_uniforms, read_odometry
-from slam_env.kernels.raw_step import sense_and_observe
+from slam_env.kernels.odometry import odometry_uniforms
+from slam_env.kernels.raw_step import MOTION_FLAGGED, raw_step
 from slam_env.kernels.sensing import SensorParams, scan_uniforms
 from slam_env.layouts import Layout
 from slam_env.random_blocks import RandomBlocks
@@ -211,6 +210,45 @@ class RawCore(BatchCore):
         self._fault_fields = tuple(self._faults)
         self._params_fields = tuple(self._params)
         self._out_fields = tuple(self.out)  # the active mask of one sub-env
+        self._views: dict[int, tuple[dict[str, np.ndarray], dict[str, np.ndarray]]] = {}
+        self._touched = np.zeros(b, dtype=bool)  # the sub-envs a step moves or resets
+        self._step_args: tuple[Any, ...] = ()  # raw_step's, from the blocks to `out_fields`
+
+    # Views of one sub-env's rows (see _row_views): never pickled, as a view would come
+    # back as a copy, detached from the arrays.
+    def __getstate__(self) -> dict[str, Any]:
+        return {k: v for k, v in self.__dict__.items() if k != "_views"}
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        self.__dict__.update(state)
+        self._views = {}
+
+    def _row_views(self, index: int) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray]]:
+        """Views of sub-env ``index``'s rows of what :meth:`observation` and :meth:`info`
+        copy out, made at the first call for ``index`` (taking a row costs about as
+        much as copying it)."""
+        views = self._views.get(index)
+        if views is None:
+            out, worlds = self.out, self.worlds
+            obs = {
+                "odometry": out.odometry[index],
+                "detections": out.detections[index],
+                "ids": out.ids[index],
+                "mask": out.mask[index],
+            }
+            if self._beam_angles.size:
+                obs["scan"] = self.scan[index]
+            if self.config.sensor.bumper:
+                obs["bumper"] = out.bumper[index]
+            info = {
+                "pose": worlds.poses[index],
+                "landmark_positions": worlds.landmarks[index],
+                "landmark_ids": worlds.landmark_ids[index],
+                "seen": self.seen[index],
+                "odometry_true": self.control_true[index],
+            }
+            views = self._views[index] = (obs, info)
+        return views
 
     # ------------------------------------------------------------------ stepping
     def advance(
@@ -222,8 +260,8 @@ class RawCore(BatchCore):
         same kernel calls. A reset scan has no faults and pays nothing. Returns the new
         episodes' layouts, in the order of ``resetting``."""
         worlds = self.worlds
-        before = worlds.move(commands, stepping, self.collided)
-        touched = stepping.copy()
+        touched = self._touched
+        np.copyto(touched, stepping)
         layouts = []
         for b in resetting:
             layouts.append(worlds.reset(b, self.rngs[b]))
@@ -234,29 +272,14 @@ class RawCore(BatchCore):
             self.control[b] = 0.0
             self.control_true[b] = 0.0
             touched[b] = True
-        uniforms = self.blocks.take(self.rngs, touched)
-        read_odometry(
-            before,
-            worlds.poses,
-            self.velocity_model,
-            self._noise,
-            uniforms,
-            0,
-            stepping,
-            self.control_true,
-            self.control,
-        )
-        if self.faults_on:
-            corrupt_odometry(
-                self._faults.odometry_dropout,
-                self._bias,
-                uniforms,
-                self._fault_offset,
-                stepping,
-                self.control,
-            )
-            self._kidnap(uniforms, stepping)
-        self._sense_and_observe(uniforms, touched, stepping)
+        # The resets first (their robots do not move), then the step in one kernel call.
+        if self.faults_on and self.config.faults.kidnap_rate > 0.0:
+            # The kidnapping comes between the odometry reading and the scans.
+            self._raw_step(commands, stepping, read=True, sense=False)
+            self._kidnap(self.blocks.uniforms, stepping)
+            self._raw_step(commands, stepping, read=False, sense=True)
+        else:
+            self._raw_step(commands, stepping, read=True, sense=True)
         out = self.out
         if self.config.terminate_when_all_detected:
             np.logical_and(out.all_seen, stepping, out=self.terminated)
@@ -275,28 +298,46 @@ class RawCore(BatchCore):
             for b in np.flatnonzero(events).tolist():
                 self.kidnapped[b] = self.worlds.kidnap(b, self.rngs[b])
 
-    def _sense_and_observe(
-        self, uniforms: np.ndarray, touched: np.ndarray, stepping: np.ndarray
+    def _raw_step(
+        self, commands: np.ndarray, stepping: np.ndarray, read: bool, sense: bool
     ) -> None:
-        """The scans and observations of the ``touched`` worlds; the faults, if any, on
-        the scans of the ``stepping`` ones."""
+        """If ``read``, the motion of the ``stepping`` robots by ``commands``, the uniforms
+        of the touched sub-envs and the odometry readings (and their faults) of the
+        stepping ones; if ``sense``, the scans and observations: one call of
+        :func:`~slam_env.kernels.raw_step.raw_step`, and more only where it stops for
+        Python."""
         worlds = self.worlds
-        sense_and_observe(
-            (worlds.poses, worlds.landmarks, worlds.landmark_ids, worlds.id_order),
-            tuple(worlds.geometry),
-            self._sensor_fields,
-            uniforms,
-            self._scan_offset,
-            touched,
-            (self.det_z, self.det_ids, self.det_rows, self.det_count),
-            (self._fault_fields, self._fault_offset) if self.faults_on else None,
-            stepping,
-            (self._beam_angles, self._scan_reach, self.scan),
-            (self.control, self.collided),
-            self.seen,
-            self._params_fields,
-            self._out_fields,
-        )
+        args = self._step_args
+        if not args or args[4] is not worlds.geometry_fields:  # a reset replaced them
+            args = self._step_args = (
+                self.blocks.kernel_args,
+                (worlds.before, self.velocity_model, self._noise, self.control_true, self.control),
+                (self._faults.odometry_dropout, self._bias, self._fault_offset)
+                if self.faults_on
+                else None,
+                (worlds.poses, worlds.landmarks, worlds.landmark_ids, worlds.id_order),
+                worlds.geometry_fields,
+                self._sensor_fields,
+                self._scan_offset,
+                self._touched,
+                (self.det_z, self.det_ids, self.det_rows, self.det_count),
+                (self._fault_fields, self._fault_offset) if self.faults_on else None,
+                (self._beam_angles, self._scan_reach, self.scan),
+                self.collided,
+                self.seen,
+                self._params_fields,
+                self._out_fields,
+            )
+        motion = worlds.motion_args(commands) if read else None
+        while stopped := raw_step(motion, *args, stepping, read, sense):
+            if stopped > 0:  # blocks used up: nothing done yet
+                self.blocks.refill(stopped, self.rngs)
+            elif stopped == MOTION_FLAGGED:  # moved, but for these robots' queries
+                worlds.settle(self.collided)
+                motion = None
+            else:  # a command that needs more moves than the buffer holds: nothing done
+                worlds.make_room(-stopped, commands, stepping)
+                motion = worlds.motion_args(commands)
 
     @property
     def beam_angles(self) -> np.ndarray:
@@ -311,18 +352,7 @@ class RawCore(BatchCore):
     # ------------------------------------------------------------------ reading
     def observation(self, index: int) -> dict[str, np.ndarray]:
         """Sub-env ``index``'s observation, fresh arrays."""
-        out = self.out
-        obs = {
-            "odometry": out.odometry[index].copy(),
-            "detections": out.detections[index].copy(),
-            "ids": out.ids[index].copy(),
-            "mask": out.mask[index].copy(),
-        }
-        if self._beam_angles.size:
-            obs["scan"] = self.scan[index].copy()
-        if self.config.sensor.bumper:
-            obs["bumper"] = out.bumper[index].copy()
-        return obs
+        return {key: row.copy() for key, row in self._row_views(index)[0].items()}
 
     def observations(self) -> dict[str, np.ndarray]:
         """Every sub-env's observation, stacked (B, …), fresh arrays."""
@@ -369,22 +399,23 @@ class RawCore(BatchCore):
 
     def info(self, index: int) -> dict[str, Any]:
         """Sub-env ``index``'s info (the ground truth), fresh objects."""
-        worlds = self.worlds
+        rows = self._row_views(index)[1]
+        out = self.out
         info = {
-            "pose": worlds.poses[index].copy(),
-            "landmark_positions": worlds.landmarks[index].copy(),
-            "landmark_ids": worlds.landmark_ids[index].copy(),
-            "collision": bool(self.collided[index]),
+            "pose": rows["pose"].copy(),
+            "landmark_positions": rows["landmark_positions"].copy(),
+            "landmark_ids": rows["landmark_ids"].copy(),
+            "collision": self.collided.item(index),
             # Fixed size (one entry per landmark ID), so that vector envs stack it.
-            "seen": self.seen[index].copy(),
-            "odometry_true": self.control_true[index].copy(),
+            "seen": rows["seen"].copy(),
+            "odometry_true": rows["odometry_true"].copy(),
             "reward_terms": {
-                "new_landmarks": float(self.out.new_terms[index]),
-                "collision": float(self.out.collision_terms[index]),
+                "new_landmarks": out.new_terms.item(index),
+                "collision": out.collision_terms.item(index),
             },
         }
         if self.faults_on:
-            info["kidnapped"] = bool(self.kidnapped[index])
+            info["kidnapped"] = self.kidnapped.item(index)
         if self.reports_truth:
             info["detection_ids"] = self.detection_ids(index)
         return info

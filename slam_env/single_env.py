@@ -118,7 +118,8 @@ class CoreEnv(gym.Env):
     # ------------------------------------------------------------------ the world
     @property
     def world(self) -> World:
-        """The pymunk world of the current episode (after ``reset``)."""
+        """The pymunk world of the current episode (after ``reset``): one object for
+        the env's life, relaid at each reset (:meth:`World.relayout`)."""
         if not self._started:
             raise ResetNeeded("call reset() before accessing the world")
         return self._core.worlds.worlds[0]

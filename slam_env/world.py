@@ -40,7 +40,13 @@ import pymunk
 from slam_env.config import RobotConfig
 from slam_env.drive import Drive
 from slam_env.kernels import raycast
-from slam_env.kernels.geometry import StaticGeometry, empty_geometry, set_world, static_shapes
+from slam_env.kernels.geometry import (
+    StaticGeometry,
+    StaticShapes,
+    empty_geometry,
+    set_world,
+    static_shapes,
+)
 from slam_env.kernels.motion import CLEARANCE_SLACK, MAX_MOVE_FRACTION, wrap_heading
 from slam_env.layouts import LANDMARK_POST_RADIUS, Layout
 
@@ -105,13 +111,28 @@ class World:
         if not validated:
             layout.validate(robot.radius, wall_thickness=float(wall_thickness))
 
-        self.layout = layout
         self.robot = robot
         self.dt = float(dt)
         self.substeps = int(substeps)
         self.wall_thickness = float(wall_thickness)
         self._h = self.dt / self.substeps  # s, one sub-step
+        # The pose (x, y, θ) and the clear disk (cx, cy, d: nothing the robot can hit
+        # lies closer than d to (cx, cy)) as (1, 3) rows that the motion kernel reads:
+        # the world's own, or a WorldBatch's (see _use_rows). _clear_disk mirrors the
+        # disk as Python floats for the queries.
+        self._pose = np.zeros((1, 3))
+        self._disk = np.zeros((1, 3))
+        self._space: pymunk.Space | None = None
+        self.relayout(layout)
 
+    def relayout(self, layout: Layout) -> None:
+        """Make this the world of ``layout``, the robot at its start pose: the world
+        ``World(layout, …)`` would build with this robot, ``dt``, ``substeps`` and wall
+        thickness, for which ``layout`` must already be valid (it is not checked).
+        The pymunk shapes are reshaped in place when ``layout`` has as many walls,
+        obstacles and posts as the current one (a tenth of the cost of new ones); a
+        batched core relays each sub-env's world at its resets this way."""
+        self.layout = layout
         positions = layout.landmark_array()
         positions.flags.writeable = False
         ids = layout.id_array()
@@ -119,22 +140,43 @@ class World:
         self._landmark_positions = positions
         self._landmark_ids = ids
         self._landmark_points = tuple((x, y) for x, y in positions.tolist())
-        self._build_space()
-        # The pose (x, y, θ) and the clear disk (cx, cy, d: nothing the robot can hit
-        # lies closer than d to (cx, cy)) as (1, 3) rows that the motion kernel reads:
-        # the world's own, or a WorldBatch's (see _use_rows). _clear_disk mirrors the
-        # disk as Python floats for the queries.
-        self._pose = np.zeros((1, 3))
-        self._disk = np.array([[0.0, 0.0, -math.inf]])
+        listed = static_shapes(layout, self.wall_thickness)
+        if not self._reshape_space(listed):
+            self._build_space(listed)
+        self.__dict__.pop("_geometry", None)  # the compiled queries' copy, rebuilt lazily
+        self._disk[0] = (0.0, 0.0, -math.inf)
         self._clear_disk = (0.0, 0.0, -math.inf)
+        # A point on a shape, the last that a query found: whatever lies closer than
+        # the robot's radius to it is blocked (none yet: a point at infinity).
+        self._surface = (math.inf, math.inf)
+        self._blocked_at = (math.inf, math.inf)  # the last point a query found blocked
         x, y, theta = layout.start_pose
         self._place(x, y, theta)
 
     # ----------------------------------------------------------------- construction
 
-    def _build_space(self) -> None:
+    def _reshape_space(self, listed: StaticShapes) -> bool:
+        """Move the static shapes onto ``listed``'s when the counts match; False (and
+        nothing changed) when they do not."""
+        if self._space is None or (
+            len(listed.segments),
+            len(listed.polygons),
+            len(listed.circles),
+        ) != (len(self._walls), len(self._obstacles), len(self._posts)):
+            return False
+        for shape, (a, b, radius) in zip(self._walls, listed.segments, strict=True):
+            shape.unsafe_set_endpoints(a, b)
+            shape.unsafe_set_radius(radius)
+        for shape, poly in zip(self._obstacles, listed.polygons, strict=True):
+            shape.unsafe_set_vertices(poly)
+        for shape, (centre, radius) in zip(self._posts, listed.circles, strict=True):
+            shape.unsafe_set_offset(centre)
+            shape.unsafe_set_radius(radius)
+        self._space.reindex_static()
+        return True
+
+    def _build_space(self, listed: StaticShapes) -> None:
         # The same shapes as the kernels' arrays: both come from static_shapes.
-        listed = static_shapes(self.layout, self.wall_thickness)
         space = pymunk.Space()
         static = space.static_body
         shapes: list[pymunk.Shape] = []
@@ -159,6 +201,10 @@ class World:
         shape = pymunk.Circle(body, self.robot.radius)
         shape.filter = pymunk.ShapeFilter(categories=CAT_ROBOT)
         space.add(*shapes, body, shape)
+        n_walls, n_obstacles = len(listed.segments), len(listed.polygons)
+        self._walls = shapes[:n_walls]
+        self._obstacles = shapes[n_walls : n_walls + n_obstacles]
+        self._posts = shapes[n_walls + n_obstacles :]
         self._space = space
         self._body = body
         self._robot_shape = shape
@@ -259,7 +305,10 @@ class World:
         x, y = float(pose[0]), float(pose[1])
         blocked = False
         radius = self.robot.radius
-        if self._clearance(x, y, reach) >= reach:
+        sx, sy = self._surface
+        if math.hypot(x - sx, y - sy) + CLEARANCE_SLACK >= reach and (
+            self._clearance(x, y, reach) >= reach
+        ):
             # Nothing within reach of the whole step: no need to check each move.
             for dx, dy in moves.tolist():
                 x += dx
@@ -267,10 +316,14 @@ class World:
         else:
             clearance = self._clearance
             for dx, dy in moves.tolist():
-                gap = clearance(x + dx, y + dy, radius)
-                if gap < radius:
+                sx, sy = self._surface
+                ex, ey = x + dx, y + dy
+                if (
+                    math.hypot(ex - sx, ey - sy) + CLEARANCE_SLACK < radius
+                    or clearance(ex, ey, radius) < radius
+                ):
                     blocked = True
-                    lo = self._contact(x, y, dx, dy, gap)
+                    lo = self._contact(x, y, dx, dy)
                     dx, dy = lo * dx, lo * dy
                 x += dx
                 y += dy
@@ -298,37 +351,63 @@ class World:
             return bound
         radius = reach + CLEARANCE_LOOKAHEAD
         hit = self._space.point_query_nearest((x, y), radius, _MOTION_FILTER)
-        clear = radius if hit is None else hit.distance
+        if hit is None:
+            clear = radius
+        else:
+            clear = hit.distance
+            self._surface = (hit.point.x, hit.point.y)
         self._clear_disk = (x, y, clear)
         self._disk[0] = self._clear_disk
         return clear
 
-    def _contact(self, x: float, y: float, dx: float, dy: float, gap: float) -> float:
+    def _contact(self, x: float, y: float, dx: float, dy: float) -> float:
         """The longest fraction of the move (dx, dy) from (x, y) that keeps the robot
-        clear, bisected to 2⁻¹² of the move; the move's end is ``gap`` (< radius) from
-        the nearest shape.
+        clear, bisected to 2⁻¹² of the move; the move's end is blocked, and
+        :attr:`_surface` is a point on a shape closer to it than the robot's radius.
 
         Each midpoint is blocked when a point query finds a shape within the robot's
-        radius. A shape at distance d from a point is at most d + |p − q| from another
-        point q, so a midpoint that close to a point found blocked is blocked without
-        a query: the same answers, fewer queries.
+        radius. Most midpoints are settled without one, from what earlier queries
+        found (the same answers, fewer queries):
+        - a point closer than the radius to a point on a shape is blocked: each query
+          that finds a shape gives the point of it nearest to the midpoint;
+        - a point inside a clear disk, by at least the radius, is clear: each query
+          looks as far as the move is long, as :meth:`_clearance` does, and keeps the
+          disk it found empty;
+        - the last midpoint found blocked is remembered, because a robot pressed into
+          a wall asks about the same point (within round-off of the contact) at every
+          push: a pressed robot needs no query.
         """
         radius = self.robot.radius
+        reach = radius + math.hypot(dx, dy)
         query = self._space.point_query_nearest
-        hx, hy, hd = x + dx, y + dy, gap  # the last point found blocked, its distance
+        sx, sy = self._surface
+        bx, by = self._blocked_at
+        cx, cy, clear = self._clear_disk
         lo, hi = 0.0, 1.0
         for _ in range(CONTACT_BISECTIONS):
             mid = 0.5 * (lo + hi)
             px, py = x + mid * dx, y + mid * dy
-            if hd + math.hypot(px - hx, py - hy) + CLEARANCE_SLACK < radius:
+            if math.hypot(px - sx, py - sy) + CLEARANCE_SLACK < radius or (px == bx and py == by):
                 hi = mid
-                continue
-            hit = query((px, py), radius, _MOTION_FILTER)
-            if hit is None:
+            elif clear - math.hypot(px - cx, py - cy) - CLEARANCE_SLACK >= radius:
                 lo = mid
             else:
-                hi = mid
-                hx, hy, hd = px, py, hit.distance
+                hit = query((px, py), reach, _MOTION_FILTER)
+                if hit is None:
+                    cx, cy, clear = px, py, reach
+                    lo = mid
+                else:
+                    sx, sy = hit.point.x, hit.point.y
+                    if hit.distance < radius:
+                        bx, by = px, py
+                        hi = mid
+                    else:
+                        cx, cy, clear = px, py, hit.distance
+                        lo = mid
+        self._surface = (sx, sy)
+        self._blocked_at = (bx, by)
+        self._clear_disk = (cx, cy, clear)
+        self._disk[0] = self._clear_disk
         return lo
 
     # ----------------------------------------------------------------- line of sight

@@ -24,7 +24,8 @@ class WorldBatch:
 
     A fixed world (a preset or a user layout) is built once and shared by every
     sub-env; with ``preset="random"`` each reset draws a new world from the sub-env's
-    generator.
+    generator. Each sub-env keeps one :class:`~slam_env.world.World`, relaid at its
+    resets (:meth:`World.relayout`: the same object, the new episode's world).
     """
 
     def __init__(self, config: EnvConfig, num_envs: int) -> None:
@@ -46,47 +47,77 @@ class WorldBatch:
         n = self.n_landmarks
         self.worlds: list[World | None] = [None] * num_envs
         self.poses = np.zeros((num_envs, 3))
+        self.before = np.zeros((num_envs, 3))  # the poses before the last move
         self.disks = np.zeros((num_envs, 3))
         self._drive = Drive(num_envs, config.robot.radius, config.dt, config.physics_substeps)
         self.landmarks = np.zeros((num_envs, n, 2))
         self.landmark_ids = np.zeros((num_envs, n), dtype=np.int64)
         self.id_order = np.tile(np.arange(n, dtype=np.int64), (num_envs, 1))
         self.geometry: StaticGeometry = empty_geometry(num_envs)
+        self.geometry_fields = tuple(self.geometry)  # as the kernels take it
 
     def reset(self, index: int, rng: np.random.Generator) -> Layout:
         """A new episode's world for sub-env ``index`` (drawn from ``rng`` when random)."""
         cfg = self.config
         layout = self.fixed_layout or layout_for(cfg, rng=rng)
-        # layout_for validated the layout for this robot and wall thickness.
-        world = World(
-            layout,
-            cfg.robot,
-            cfg.dt,
-            cfg.physics_substeps,
-            cfg.world.wall_thickness,
-            validated=True,
-        )
-        self.worlds[index] = world
-        world._use_rows(self.poses[index : index + 1], self.disks[index : index + 1])
+        # layout_for's worlds are valid for this robot and wall thickness.
+        world = self.worlds[index]
+        if world is None:
+            world = World(
+                layout,
+                cfg.robot,
+                cfg.dt,
+                cfg.physics_substeps,
+                cfg.world.wall_thickness,
+                validated=True,
+            )
+            self.worlds[index] = world
+            world._use_rows(self.poses[index : index + 1], self.disks[index : index + 1])
+        else:
+            world.relayout(layout)
         self.landmarks[index] = world.landmark_positions
         ids = world.landmark_ids
         self.landmark_ids[index] = ids
         self.id_order[index] = np.argsort(ids, kind="stable")
-        self.geometry = set_world(self.geometry, index, layout, cfg.world.wall_thickness)
+        geometry = set_world(self.geometry, index, layout, cfg.world.wall_thickness)
+        if geometry is not self.geometry:  # grown: new arrays
+            self.geometry = geometry
+            self.geometry_fields = tuple(geometry)
         return layout
 
     def move(self, commands: np.ndarray, active: np.ndarray, collided: np.ndarray) -> np.ndarray:
         """Drive each ``active`` ((B,) bool) robot by its row of ``commands`` ((B, 2)
         float64, finite: speed m/s, turn rate rad/s) for one step, its collision flag
-        into ``collided`` (B,). Returns the poses before the step."""
-        before = self.poses.copy()
+        into ``collided`` (B,). Returns the poses before the step (:attr:`before`, which
+        the next call overwrites)."""
+        np.copyto(self.before, self.poses)
+        self._drive(self.poses, self.disks, commands, active, collided)
+        self.settle(collided)
+        return self.before
+
+    def motion_args(self, commands: np.ndarray) -> tuple[Any, ...]:
+        """The motion of ``commands`` ((B, 2) float64) as
+        :func:`slam_env.kernels.raw_step.raw_step` takes it: after
+        :data:`~slam_env.kernels.raw_step.MOTION_FLAGGED`, :meth:`settle` the robots it
+        flagged; after a shortage of moves, :meth:`make_room` and new arguments."""
         drive = self._drive
-        flagged = drive(self.poses, self.disks, commands, active, collided)
-        if flagged:
-            worlds, moves, counts, reaches = self.worlds, drive.moves, drive.counts, drive.reaches
-            for b in flagged:
-                collided[b] = worlds[b]._settle(moves[b, : counts[b]], float(reaches[b]))
-        return before
+        return (
+            commands, self.disks, drive.radius, drive.dt, drive.substeps, drive.moves,
+            drive.counts, drive.reaches,
+        )  # fmt: skip
+
+    def make_room(self, needed: int, commands: np.ndarray, active: np.ndarray) -> None:
+        """Room for ``needed`` moves a robot (see :meth:`slam_env.drive.Drive.make_room`:
+        ``ValueError`` if too many)."""
+        self._drive.make_room(needed, commands, active)
+
+    def settle(self, collided: np.ndarray) -> None:
+        """Settle the robots the motion kernel flagged with clearance queries, each
+        one's collision flag into ``collided``."""
+        drive = self._drive
+        for b in drive.flagged():
+            moves = drive.moves[b, : drive.counts[b]]
+            collided[b] = self.worlds[b]._settle(moves, float(drive.reaches[b]))
 
     def __setstate__(self, state: dict[str, Any]) -> None:
         # A copy's worlds hold copies of their rows: give them the copy's own.

@@ -56,6 +56,63 @@ def test_random_layout_satisfies_constraints() -> None:
         check_random_layout(random_layout(dense, 0.3, np.random.default_rng(seed)), dense, 0.3)
 
 
+def test_every_drawn_world_is_valid() -> None:
+    # random_layout does not call Layout.validate (each reset would pay it): what it
+    # draws must pass it by construction, over the whole configuration space, or it
+    # must refuse the configuration with a ValueError.
+    from hypothesis import HealthCheck, given, settings
+    from hypothesis import strategies as st
+
+    sizes = st.floats(1.0, 30.0)
+
+    @settings(max_examples=300, deadline=None, suppress_health_check=list(HealthCheck))
+    @given(
+        width=sizes,
+        height=sizes,
+        n_landmarks=st.integers(1, 60),
+        n_obstacles=st.integers(0, 12),
+        box=st.tuples(st.floats(0.05, 4.0), st.floats(0.0, 3.0)),
+        spacing=st.floats(0.0, 3.0),
+        clearance=st.floats(0.0, 1.5),
+        wall_thickness=st.floats(0.01, 0.5),
+        radius=st.floats(0.02, 0.8),
+        seed=st.integers(0, 2**32 - 1),
+    )
+    def drawn_world_is_valid(
+        width,
+        height,
+        n_landmarks,
+        n_obstacles,
+        box,
+        spacing,
+        clearance,
+        wall_thickness,
+        radius,
+        seed,
+    ) -> None:
+        cfg = WorldConfig(
+            width=width,
+            height=height,
+            n_landmarks=n_landmarks,
+            n_obstacles=n_obstacles,
+            obstacle_size=(box[0], box[0] + box[1]),
+            landmark_spacing=spacing,
+            clearance=clearance,
+            wall_thickness=wall_thickness,
+        )
+        try:
+            layout = random_layout(cfg, radius, np.random.default_rng(seed))
+        except ValueError:
+            drawn["refused"] += 1
+            return
+        drawn["drawn"] += 1
+        layout.validate(radius, clearance, wall_thickness=wall_thickness)
+
+    drawn = {"drawn": 0, "refused": 0}
+    drawn_world_is_valid()
+    assert drawn["drawn"] >= 100  # most configurations could be drawn, and were checked
+
+
 def test_random_layout_is_reproducible_from_the_rng() -> None:
     cfg = WorldConfig()
     a = random_layout(cfg, R, np.random.default_rng(7))

@@ -466,6 +466,34 @@ def test_step_is_bit_identical_to_plain_queries(which) -> None:
     assert n_blocked > 50  # the bisection was exercised
 
 
+class CountingSpace:
+    """A pymunk space that counts its point queries."""
+
+    def __init__(self, space: pymunk.Space) -> None:
+        self.space = space
+        self.queries = 0
+
+    def point_query_nearest(self, *args):
+        self.queries += 1
+        return self.space.point_query_nearest(*args)
+
+
+def test_a_robot_pressed_into_a_wall_needs_no_query() -> None:
+    # Each query that finds a shape keeps a point of it: what lies closer than the
+    # robot's radius to that point is blocked without asking again.
+    w = world()
+    w.set_pose(1.0, 2.5, math.pi)  # facing the boundary x = 0
+    while not w.step(1.0, 0.0):
+        pass
+    counting = CountingSpace(w._space)
+    w._space = counting
+    pressed = [w.step(1.0, 0.0) for _ in range(20)]
+    assert all(pressed) and counting.queries == 0
+    assert w.pose[0] == pytest.approx(R, abs=STOP)
+    w.step(-1.0, 0.0)  # backing off is checked, and free
+    assert counting.queries > 0 and w.pose[0] > R + 0.1
+
+
 def test_clearance_answers_like_a_point_query() -> None:
     w = World(preset_layout("cluttered", WorldConfig()), ROBOT, DT, SUBSTEPS, T)
     rng = np.random.default_rng(6)
@@ -587,3 +615,83 @@ def test_range_scan_is_pymunks_segment_query() -> None:
             assert distance == (reach if hit is None else hit.alpha * reach)
             short += hit is not None
     assert short > 100
+
+
+# ----------------------------------------------------------------------------- relayout
+def same_answers(relaid: World, fresh: World, rng: np.random.Generator) -> None:
+    """The relaid world and a fresh one answer alike: pose, landmarks, point queries
+    (the motion's), lines of sight and scans (the compiled geometry), and steps."""
+    assert relaid.pose == fresh.pose
+    assert np.array_equal(relaid.landmark_positions, fresh.landmark_positions)
+    assert np.array_equal(relaid.landmark_ids, fresh.landmark_ids)
+    width, height = fresh.layout.width, fresh.layout.height
+    for _ in range(300):
+        x, y = float(rng.uniform(-0.5, width + 0.5)), float(rng.uniform(-0.5, height + 0.5))
+        reach = float(rng.uniform(0.0, 1.5))
+        a = relaid.space.point_query_nearest((x, y), reach, _MOTION_FILTER)
+        b = fresh.space.point_query_nearest((x, y), reach, _MOTION_FILTER)
+        assert (a is None) == (b is None)
+        if a is not None:
+            assert a.distance == b.distance
+        row = int(rng.integers(len(fresh.landmark_ids)))
+        target = fresh.landmark_positions[row]
+        assert relaid.line_of_sight((x, y), target, row) == fresh.line_of_sight((x, y), target, row)
+    angles = tuple(np.linspace(-np.pi, np.pi, 16, endpoint=False).tolist())
+    assert relaid.range_scan(*fresh.pose, angles, 5.0) == fresh.range_scan(*fresh.pose, angles, 5.0)
+    for _ in range(100):  # push into things: contacts resolved by the relaid shapes
+        v, omega = float(rng.uniform(-1.0, 1.0)), float(rng.uniform(-1.5, 1.5))
+        assert relaid.step(v, omega) == fresh.step(v, omega)
+        assert relaid.pose == fresh.pose
+
+
+def test_relayout_builds_the_world_a_new_one_would() -> None:
+    cfg = WorldConfig(n_obstacles=6)
+    rng = np.random.default_rng(11)
+    w = world(random_layout(cfg, R, np.random.default_rng(0)))
+    w.line_of_sight((1.0, 1.0), w.landmark_positions[0], 0)  # its compiled geometry cached
+    space = w._space
+    # Random worlds of one config reshape the same pymunk shapes; other presets (other
+    # shape counts) rebuild them; and back again.
+    layouts = [random_layout(cfg, R, np.random.default_rng(seed)) for seed in (1, 2)]
+    layouts += [preset_layout("rooms", WorldConfig()), preset_layout("cluttered", WorldConfig())]
+    layouts += [random_layout(cfg, R, np.random.default_rng(3)), arena()]
+    kept = []
+    for layout in layouts:
+        w.step(1.0, 0.3)  # a pose and a clear disk from the last world, to be forgotten
+        w.relayout(layout)
+        kept.append(w._space is space)
+        space = w._space
+        assert w.layout is layout
+        same_answers(w, world(layout), rng)
+    assert kept == [True, True, False, False, False, False]
+
+
+def test_relaid_world_pickles() -> None:
+    w = world(random_layout(WorldConfig(), R, np.random.default_rng(0)))
+    w.relayout(random_layout(WorldConfig(), R, np.random.default_rng(1)))
+    w.step(1.0, 0.2)
+    clone = pickle.loads(pickle.dumps(w))
+    same_answers(clone, w, np.random.default_rng(2))
+
+
+def test_relayout_forgets_what_the_queries_found() -> None:
+    # Driving in the open leaves a wide clear disk around the robot; a new world with a
+    # box right ahead of the same start must not be crossed on the old disk's word.
+    w = world(arena(obstacles=()))
+    assert not w.step(1.0, 0.0)  # a clearance query: nothing within 0.95 m
+    w.set_pose(2.0, 2.5, 0.0)
+    boxed = arena(obstacles=(((2.6, 2.0), (3.0, 2.0), (3.0, 3.0), (2.6, 3.0)),))
+    w.relayout(boxed)
+    fresh = world(boxed)
+    for _ in range(10):
+        assert w.step(1.0, 0.0) == fresh.step(1.0, 0.0)
+        assert w.pose == fresh.pose
+    assert w.pose[0] < 2.6 - R + 1e-9  # stopped at the box
+    # Pressed into the box, the robot knows a point of it; without the box, it drives on.
+    w.relayout(arena(obstacles=()))
+    w.set_pose(*fresh.pose)
+    open_arena = world(arena(obstacles=()))
+    open_arena.set_pose(*fresh.pose)
+    for _ in range(5):
+        assert w.step(1.0, 0.0) == open_arena.step(1.0, 0.0) == False  # noqa: E712
+        assert w.pose == open_arena.pose

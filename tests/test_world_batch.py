@@ -17,11 +17,15 @@ from slam_env.world_batch import WorldBatch
 B = 6
 
 
-def batch_and_twins(config: EnvConfig) -> tuple[WorldBatch, list[World]]:
-    batch = WorldBatch(config, B)
+def batch_and_twins(
+    config: EnvConfig, batch: WorldBatch | None = None, seed: int = 0
+) -> tuple[WorldBatch, list[World]]:
+    """A batch whose worlds are reset (a new batch's first reset, or a batch's next)
+    and fresh standalone worlds of the same layouts."""
+    batch = batch or WorldBatch(config, B)
     twins = []
     for b in range(B):
-        layout = batch.reset(b, np.random.default_rng(b))
+        layout = batch.reset(b, np.random.default_rng(seed + b))
         twins.append(
             World(
                 layout,
@@ -50,6 +54,10 @@ def test_moving_the_batch_is_stepping_each_world(preset) -> None:
     collided = np.zeros(B, dtype=bool)
     n_collisions = 0
     for i in range(300):
+        if i == 150:  # a second episode: each world relaid, the same objects kept
+            kept = list(batch.worlds)
+            batch, twins = batch_and_twins(config, batch, seed=B)
+            assert all(a is b for a, b in zip(kept, batch.worlds, strict=True))
         command = commands(rng, config)
         active = rng.random(B) < 0.9
         collided[:] = False
