@@ -120,9 +120,9 @@ def _count_classes(
     arena[:] = 0
     unswept[:] = 0
     for r in range(ny):
-        class_row = classes[ny - 1 - i + r, nx - 1 - j : 2 * nx - 1 - j]
-        start = (r + pad) * stride + pad
-        grid_row = swept[start : start + nx]
+        # Row views from the first cell on; the loop reads the row's nx cells.
+        class_row = classes[ny - 1 - i + r, nx - 1 - j :]
+        grid_row = swept[(r + pad) * stride + pad :]
         for c in range(nx):
             slot = class_row[c]
             arena[slot] += 1
