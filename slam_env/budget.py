@@ -63,7 +63,8 @@ MAX_MEMORY_BYTES = 2 * 2**30
 BELIEF_DENSE_COPIES = {"egocentric": 4, "full": 9, "local": 4}
 # The coverage grid: per offset of its (2·nx − 1)(2·ny − 1) window, the region codes and
 # their temporaries over 72 heading bins (measured ~1,900 B); per offset in the sensor's
-# footprint, the footprint tables and temporaries; one byte per cell of the padded grid.
+# footprint, the footprint tables and temporaries; one byte per cell of the padded grid,
+# and each world's class counts (slam_env.coverage_classes).
 COVERAGE_BYTES_PER_OFFSET = 2_100
 COVERAGE_BYTES_PER_FOOTPRINT_OFFSET = 2_400
 # Per landmark: pymunk's post and query filter, the sensor's and the world's tables;
@@ -156,6 +157,15 @@ def _coverage_geometry(config: EnvConfig, world: WorldSize) -> tuple[int, int, i
     return offsets, footprint, (nx + 2 * pad) * (ny + 2 * pad)
 
 
+def _coverage_counts_bytes() -> int:
+    """The bytes of one world's class counts in ``CoverageWrapper``'s grid (an upper
+    bound: a grid that scans instead keeps none)."""
+    from slam_env.coverage import HEADING_BINS, SECTORS, SENSOR_RING_EDGES
+    from slam_env.coverage_classes import class_counts_shape
+
+    return 8 * math.prod(class_counts_shape(HEADING_BINS, SECTORS, len(SENSOR_RING_EDGES) + 1))
+
+
 def memory_parts(
     config: EnvConfig,
     world: WorldSize,
@@ -170,7 +180,7 @@ def memory_parts(
     scratch, which grows with the square of the detections), ``association`` (the data
     association's workspaces, where the filter associates), and ``coverage_tables`` and
     ``coverage`` (the coverage grid's tables, shared by a vector env's sub-envs, and its
-    cells)."""
+    cells and class counts)."""
     rows = world.max_detections
     parts = {
         "detections": 4 * (rows + 1) * rows,
@@ -197,7 +207,7 @@ def memory_parts(
             COVERAGE_BYTES_PER_OFFSET * offsets + COVERAGE_BYTES_PER_FOOTPRINT_OFFSET * footprint
         )
         # The local observation keeps a grid of scan-hit obstacles beside the swept one.
-        parts["coverage"] = padded * (2 if belief == "local" else 1)
+        parts["coverage"] = padded * (2 if belief == "local" else 1) + _coverage_counts_bytes()
     return parts
 
 

@@ -16,6 +16,7 @@ import gymnasium as gym
 import numpy as np
 
 from slam_env.config import SensorConfig
+from slam_env.coverage_classes import class_counts_shape, offset_classes
 from slam_env.kernels import coverage as kernels
 from slam_env.kernels.belief_state import SINGLE, filter_belief
 from slam_env.kernels.coverage import CoverageTables, coverage_step
@@ -23,6 +24,11 @@ from slam_env.kernels.coverage import CoverageTables, coverage_step
 TWO_PI = 2.0 * math.pi
 # m, the side of a coverage cell (the wrapper's default).
 COVERAGE_CELL = 0.5
+# The grid's default sectors and heading bins (those of the wrapper and the env).
+SECTORS = 8
+HEADING_BINS = 72
+# The inner edges of a sensor's grid's rings after the first, in sensor ranges.
+SENSOR_RING_EDGES = (1.0, 2.0)
 
 
 class CoverageGrid:
@@ -45,7 +51,12 @@ class CoverageGrid:
 
     Footprints and region maps are tabulated per heading bin once (:attr:`tables`,
     shared by any number of worlds); a step is one call to the coverage kernels
-    (:mod:`slam_env.kernels.coverage`) on this grid as a batch of one.
+    (:mod:`slam_env.kernels.coverage`) on this grid as a batch of one. They keep each
+    world's cells counted by class around the robot's cell, so that a step counts
+    afresh only when that cell changes (:attr:`incremental`; a grid whose classes would
+    not give the same features bit for bit, :mod:`slam_env.coverage_classes`, scans
+    every cell each step instead). So the swept cells change only through the methods:
+    :attr:`swept` and :attr:`padded` are read-only views, and :meth:`set_swept` edits.
 
     Args:
         width, height: m, the arena.
@@ -67,9 +78,9 @@ class CoverageGrid:
         fov: float,
         *,
         cell: float = 0.5,
-        sectors: int = 8,
+        sectors: int = SECTORS,
         ring_edges: tuple[float, ...] = (5.0, 10.0),
-        heading_bins: int = 72,
+        heading_bins: int = HEADING_BINS,
         worlds: int = SINGLE,
     ) -> None:
         for name, value in (("width", width), ("height", height), ("cell", cell)):
@@ -111,6 +122,8 @@ class CoverageGrid:
         # has a code, the unswept cells' odd: one pass counts both.
         codes = 2 * (ring * sectors + sector) + 1
         codes = codes.astype(np.min_scalar_type(codes.max()))
+        # The classes the features are counted by, or None: a scan each step.
+        classes = offset_classes(codes, heading_bins, sectors)
 
         # The swept cells live inside a border of always-swept cells as wide as the
         # footprint, so a footprint never needs clipping and never counts the border.
@@ -130,12 +143,34 @@ class CoverageGrid:
         footprints = np.zeros((heading_bins, max(int(sizes.max()), 1)), dtype=np.int64)
         for h, row in enumerate(in_view):
             footprints[h, : sizes[h]] = flat[row]
+        counts_shape = class_counts_shape(heading_bins, sectors, edges.size + 1)
+        if classes is None:
+            footprint_classes = classes = np.zeros((0, 0), dtype=np.int64)
+            counts_shape = (*counts_shape[:2], 0)
+        else:
+            # Footprint offsets off the classes' window land in the border only: slot 0.
+            inside = (np.abs(foot_di) < self.ny) & (np.abs(foot_dj) < self.nx)
+            slots = np.zeros(foot_di.shape, dtype=np.int64)
+            slots[inside] = classes[foot_di[inside] + self.ny - 1, foot_dj[inside] + self.nx - 1]
+            footprint_classes = np.zeros(footprints.shape, dtype=np.int64)
+            for h, row in enumerate(in_view):
+                footprint_classes[h, : sizes[h]] = slots[row]
         self.tables = CoverageTables(
-            self.cell, heading_bins, p, footprints, sizes.astype(np.int64), codes
+            self.cell,
+            heading_bins,
+            p,
+            footprints,
+            sizes.astype(np.int64),
+            codes,
+            classes,
+            footprint_classes,
         )
         # The grids of the worlds, as the coverage kernels take them.
         self._padded = np.ones((worlds, self.ny + 2 * p, stride), dtype=np.bool_)
         self._n_swept = np.zeros(worlds, dtype=np.int64)
+        # Each world's class counts and the cell they are about (−1: count afresh).
+        self._class_counts = np.zeros((worlds, *counts_shape), dtype=np.int64)
+        self._held = np.full(worlds, -1, dtype=np.int64)
         self._setup_scratch()
         self.reset()
 
@@ -159,17 +194,19 @@ class CoverageGrid:
             sweep_range=max(reach - cell, 0.0),
             fov=sensor.fov,
             cell=cell,
-            ring_edges=(reach, 2.0 * reach),
+            ring_edges=tuple(k * reach for k in SENSOR_RING_EDGES),
             worlds=worlds,
         )
 
     # Views and scratch buffers: rebuilt on unpickling, never pickled (a view
     # would come back as a copy, detached from the padded grid).
-    _TRANSIENT = ("_flat", "_pose", "new_cells", "_all", "_out")
+    _TRANSIENT = ("_flat", "_read_only", "_pose", "new_cells", "_all", "_out")
 
     def _setup_scratch(self) -> None:
         worlds = self._padded.shape[0]
         self._flat = self._padded.reshape(worlds, -1)  # a view: the padded grid is contiguous
+        self._read_only = self._padded.view()
+        self._read_only.flags.writeable = False
         self._pose = np.zeros((worlds, 3))  # world 0's pose, for the one-pose methods
         self.new_cells = np.empty(worlds, dtype=np.int64)
         self._all = np.ones(worlds, dtype=np.bool_)
@@ -185,15 +222,33 @@ class CoverageGrid:
     @property
     def padded(self) -> np.ndarray:
         """(worlds, ny + 2·pad, nx + 2·pad) bool: every world's swept cells inside the
-        always-swept border of ``tables.pad`` cells (the grid itself, not a copy)."""
-        return self._padded
+        always-swept border of ``tables.pad`` cells (a read-only view of the grid
+        itself, not a copy; :meth:`set_swept` edits)."""
+        return self._read_only
 
     @property
     def swept(self) -> np.ndarray:
         """(ny, nx) bool, row i at y ∈ [i·cell, (i+1)·cell): the cells swept so far
-        (a view; a property, so that a pickled copy views its own padded grid)."""
+        (a read-only view, :meth:`set_swept` edits; a property, so that a pickled copy
+        views its own padded grid)."""
         p = self.tables.pad
-        return self._padded[0, p : p + self.ny, p : p + self.nx]
+        return self._read_only[0, p : p + self.ny, p : p + self.nx]
+
+    @property
+    def incremental(self) -> bool:
+        """Whether the features are counted by class, afresh only when the robot's
+        cell changes (False: a scan of every cell each step; the same features)."""
+        return self._class_counts.shape[3] > 0
+
+    def set_swept(self, cells: Any, value: bool = True, index: int = 0) -> None:
+        """Mark the cells ``cells`` picks from world ``index``'s (ny, nx) grid (any
+        numpy index: ``np.s_[:, 8:]``, a bool mask, a (row, column) pair) swept, or
+        unswept when ``value`` is False; the swept fraction follows."""
+        p = self.tables.pad
+        arena = self._padded[index, p : p + self.ny, p : p + self.nx]
+        arena[cells] = value
+        self._n_swept[index] = np.count_nonzero(arena)
+        self._held[index] = -1
 
     @property
     def size(self) -> int:
@@ -210,6 +265,7 @@ class CoverageGrid:
         p = self.tables.pad
         self._padded[index, p : p + self.ny, p : p + self.nx] = False
         self._n_swept[index] = 0
+        self._held[index] = -1
 
     def cell_of(self, x: float, y: float) -> tuple[int, int]:
         """(row, column) of the cell holding (x, y), clamped into the grid (a diverged
@@ -254,16 +310,21 @@ class CoverageGrid:
 
     @property
     def kernel_args(self) -> tuple[Any, ...]:
-        """The :class:`CoverageTables` fields, then ``(swept, n_swept, new_cells,
-        features)``: the grid as :func:`slam_env.kernels.active_step.belief_outputs`
-        takes it (``features`` what :meth:`step_all` returns)."""
-        return (*self.tables, self._flat, self._n_swept, self.new_cells, self._out)
+        """The :class:`CoverageTables` fields, then ``(swept, n_swept, held,
+        class_counts, new_cells, features)``: the grid as
+        :func:`slam_env.kernels.active_step.belief_outputs` takes it (``features`` what
+        :meth:`step_all` returns)."""
+        return (*self._state, self.new_cells, self._out)
+
+    @property
+    def _state(self) -> tuple[Any, ...]:
+        """The :class:`CoverageTables` fields and the worlds' state, as
+        :func:`~slam_env.kernels.coverage.coverage_step` takes them."""
+        return (*self.tables, self._flat, self._n_swept, self._held, self._class_counts)
 
     def _step(self, poses: np.ndarray, sweep: bool, active: np.ndarray | None = None) -> np.ndarray:
         active = self._all if active is None else active
-        coverage_step(
-            *self.tables, self._flat, self._n_swept, poses, sweep, self.new_cells, self._out, active
-        )
+        coverage_step(*self._state, poses, sweep, self.new_cells, self._out, active)
         return self._out
 
 

@@ -55,20 +55,20 @@ def test_features_fresh_swept_and_out_of_arena_regions():
     # In a corner facing out, the sectors behind the walls hold no cell: share 0.
     corner = grid.features(0.1, 0.1, math.pi).reshape(3, 8)
     assert corner[0, 0] == 0.0 and corner[0, 4] == 1.0
-    grid.swept[:] = True
+    grid.set_swept(np.s_[:])
     assert np.all(grid.features(8.0, 8.0, 0.0) == 0.0)
 
 
 def test_features_are_egocentric():
     grid = CoverageGrid(16.0, 16.0, sweep_range=4.5, fov=2 * math.pi / 3)
-    grid.swept[:, 8:] = True  # the east half (x > 4 m) swept
+    grid.set_swept(np.s_[:, 8:])  # the east half (x > 4 m) swept
     facing_east = grid.features(4.25, 8.25, 0.0).reshape(3, 8)
     facing_west = grid.features(4.25, 8.25, math.pi).reshape(3, 8)
     assert facing_east[0, 0] == 0.0 and facing_east[0, 4] > 0.9  # ahead swept, behind not
     assert np.array_equal(facing_west, np.roll(facing_east, 4, axis=1))
     # Sector 2 is to the left (counter-clockwise): north when facing east.
     grid.reset()
-    grid.swept[17:, :] = True  # y > 8.5 m swept
+    grid.set_swept(np.s_[17:, :])  # y > 8.5 m swept
     north_of_robot = grid.features(8.25, 8.25, 0.0).reshape(3, 8)
     assert north_of_robot[0, 2] == 0.0 and north_of_robot[0, 6] == 1.0
 

@@ -203,8 +203,8 @@ def test_a_cell_on_a_sector_boundary_belongs_to_the_sector_counter_clockwise_of_
     grid = three_by_three()
     # Sectors of 90° centred ahead (east), north, west, south: the diagonal cells
     # lie exactly on the boundaries (45°, 135°, 225°, 315°).
-    grid.swept[2, 2] = True  # north-east, at 45°: the north sector's
-    grid.swept[0, 0] = True  # south-west, at 225°: the south sector's
+    grid.set_swept((2, 2))  # north-east, at 45°: the north sector's
+    grid.set_swept((0, 0))  # south-west, at 225°: the south sector's
     features = grid.features(1.5, 1.5, 0.0)
     # Sector 0 (east): own cell, east, south-east (at 315°); sector 1 (north): north,
     # north-east; sector 2 (west): west, north-west (at 135°); 3: south, south-west.
@@ -216,9 +216,9 @@ def test_a_cell_on_a_sector_boundary_belongs_to_the_sector_counter_clockwise_of_
 
 def test_a_cell_on_a_ring_edge_belongs_to_the_outer_ring():
     grid = three_by_three(sectors=1, ring_edges=(1.0,))
-    grid.swept[1, 1] = True  # the robot's own cell: all of ring 0
+    grid.set_swept((1, 1))  # the robot's own cell: all of ring 0
     np.testing.assert_array_equal(grid.features(1.5, 1.5, 0.0), [0.0, 1.0])
-    grid.swept[1, 2] = True  # east, at exactly 1 m: ring 1, not ring 0
+    grid.set_swept((1, 2))  # east, at exactly 1 m: ring 1, not ring 0
     np.testing.assert_array_equal(grid.features(1.5, 1.5, 0.0), [0.0, 7.0 / 8.0])
 
 

@@ -111,9 +111,9 @@ def belief_outputs(
     float32 readings copied to the start of ``tail``, in order (an empty (B, 0) array
     for a sensor the env lacks); ``coverage``: the
     :class:`~slam_env.kernels.coverage.CoverageTables` fields then ``(swept, n_swept,
-    new_cells, features)``, whose features (the swept fraction first) go after the
-    readings (None: no memory, a swept fraction of 0); ``reward``: ``(weights,
-    collided, last, terms, rewards)`` of
+    held, class_counts, new_cells, features)``, whose features (the swept fraction
+    first) go after the readings (None: no memory, a swept fraction of 0); ``reward``:
+    ``(weights, collided, last, terms, rewards)`` of
     :func:`~slam_env.kernels.reward.active_slam_reward`. Returns how many worlds'
     entropy is left to the caller (Σ not positive definite to the Cholesky factor):
     the reward too is then left, for :func:`step_reward` once the entropy is known."""
@@ -130,10 +130,13 @@ def belief_outputs(
                     tail[b, at + k] = readings[b, k]
         at += readings.shape[1]
     if coverage is not None:
-        cell, bins, pad, footprints, sizes, codes, swept, n_swept, new_cells, features = coverage
+        (
+            cell, bins, pad, footprints, sizes, codes, classes, footprint_classes, swept,
+            n_swept, held, class_counts, new_cells, features,
+        ) = coverage  # fmt: skip
         coverage_step(
-            cell, bins, pad, footprints, sizes, codes, swept, n_swept, x, True, new_cells,
-            features, touched,
+            cell, bins, pad, footprints, sizes, codes, classes, footprint_classes, swept,
+            n_swept, held, class_counts, x, True, new_cells, features, touched,
         )  # fmt: skip
         for b in range(x.shape[0]):
             if touched[b]:

@@ -225,12 +225,13 @@ def test_coverage_of_b_worlds_sharing_one_table():
     padded = np.repeat(together._padded, B, axis=0)
     flat = padded.reshape(B, -1)
     n_swept = np.zeros(B, np.int64)
+    held = np.full(B, -1, np.int64)
+    class_counts = np.repeat(together._class_counts, B, axis=0)
     new = np.empty(B, np.int64)
     features = np.empty((B, 1 + together.n_features))
+    state = (*together.tables, flat, n_swept, held, class_counts)
     for step in poses:
-        coverage_step(
-            *together.tables, flat, n_swept, step, True, new, features, np.ones(len(step), np.bool_)
-        )
+        coverage_step(*state, step, True, new, features, np.ones(len(step), np.bool_))
         for b, grid in enumerate(alone):
             assert new[b] == grid.sweep(*step[b])
             np.testing.assert_array_equal(features[b, 1:], grid.features(*step[b]))
