@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 from gymnasium import spaces
@@ -44,6 +44,15 @@ from slam_env.wrappers import DIVERGENCE_REJECTIONS, PASSTHROUGH_KEYS, REWARD_TE
 
 # Rows of the diagnostics kernel's output, by name.
 _DIAGNOSTIC_ROW = {name: i for i, name in enumerate(DIAGNOSTICS)}
+
+
+class _StepArgs(NamedTuple):
+    """What :class:`ActiveCore` passes its step's kernels that never changes."""
+
+    filter_inputs: tuple  # filter_step's, before the masks
+    filter_state: tuple  # … after them, before the workspaces
+    filter_books: tuple  # … after the association flag
+    outputs: tuple  # belief_outputs's, before the masks
 
 
 class ActiveCore(BatchCore):
@@ -126,18 +135,7 @@ class ActiveCore(BatchCore):
         self.updated = np.zeros(b, dtype=bool)
         self._counted = np.zeros(b, dtype=bool)  # the updates that succeeded
         self._touched = np.zeros(b, dtype=bool)  # the sub-envs a step moves or resets
-        # filter_step's arguments but the masks and the workspaces (which grow), once:
-        # the arrays never change, and building the tuples cost as much as the call.
-        out, filters = raw.out, self.filters
-        self._filter_inputs = (
-            (out.odometry, out.detections, out.ids, raw.det_count, raw.det_ids),
-            not self.associates,
-        )
-        self._filter_state = (filters.storage, filters.config, filters.u, filters.correction_io)
-        self._filter_books = (
-            (self.updated, self.failed, self._counted, self.in_a_row),
-            (self.slot_truth, self._n_before, self.score_step, self.score_episode),
-        )
+        self._args: _StepArgs | None = None  # the kernels' fixed arguments (_step_args)
         self.diagnostics = np.zeros((len(DIAGNOSTICS), b))
         self.entropy = np.zeros(b)
         self._entropy_ok = np.zeros(b, dtype=bool)
@@ -180,6 +178,49 @@ class ActiveCore(BatchCore):
     def rngs(self) -> list[np.random.Generator | None]:
         return self.raw.rngs
 
+    # The kernels' fixed arguments hold views of the coverage grid (rebuilt when it is
+    # unpickled): never pickled, rebuilt at the first step.
+    def __getstate__(self) -> dict[str, Any]:
+        return {k: v for k, v in self.__dict__.items() if k != "_args"}
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        self.__dict__.update(state)
+        self._args = None
+
+    def _step_args(self) -> _StepArgs:
+        """The arguments of the step's kernels but the masks and the filters'
+        workspaces (which grow), built once: their arrays never change, and building
+        the tuples at every step cost as much as the calls."""
+        if self._args is None:
+            raw, filters = self.raw, self.filters
+            out = raw.out
+            readings = (out.odometry, out.detections, out.ids, raw.det_count, raw.det_ids)
+            # The map error pairs each filter landmark with its true one: the IDs are
+            # the truth's, unless the filter made its own.
+            truth_of_slots = self.slot_truth if self.associates else filters.slot_to_id
+            self._args = _StepArgs(
+                filter_inputs=(readings, not self.associates),
+                filter_state=(filters.storage, filters.config, filters.u, filters.correction_io),
+                filter_books=(
+                    (self.updated, self.failed, self._counted, self.in_a_row),
+                    (self.slot_truth, self._n_before, self.score_step, self.score_episode),
+                ),
+                outputs=(
+                    (filters.x, filters.P, filters.n, filters.slot_to_id),
+                    (truth_of_slots, raw.worlds.poses, self.truth),
+                    self.diagnostics,
+                    self._entropy_of.kernel_args,
+                    self.entropy,
+                    self._entropy_ok,
+                    self._passthrough_readings,
+                    None if self.coverage is None else self.coverage.kernel_args,
+                    self._tail,
+                    self.swept_fraction,
+                    (self._weights, raw.collided, self.last, self.terms, self.rewards),
+                ),
+            )
+        return self._args
+
     @property
     def _idle(self) -> np.ndarray:
         return self.raw._idle
@@ -210,10 +251,11 @@ class ActiveCore(BatchCore):
             if self._local is not None:
                 self._encoding.reset(b)
             touched[b] = True
-        filtering = (*self._filter_inputs, touched, stepping, *self._filter_state)
-        if not filter_step(*filtering, filters.workspaces, self.associates, *self._filter_books):
+        args = self._step_args()
+        filtering = (*args.filter_inputs, touched, stepping, *args.filter_state)
+        if not filter_step(*filtering, filters.workspaces, self.associates, *args.filter_books):
             filters.grow_for(self.updated)
-            filter_step(*filtering, filters.workspaces, self.associates, *self._filter_books)
+            filter_step(*filtering, filters.workspaces, self.associates, *args.filter_books)
         self._observe(touched, stepping)
         return layouts
 
@@ -236,26 +278,9 @@ class ActiveCore(BatchCore):
         """Diagnostics, entropy, coverage, observation, reward and ``diverged`` of the
         ``touched`` worlds (the reward paid to the ``stepping`` ones)."""
         filters, raw = self.filters, self.raw
-        belief = (filters.x, filters.P, filters.n, filters.slot_to_id)
-        # The map error pairs each filter landmark with its true one: the IDs are the
-        # truth's, unless the filter made its own.
-        truth_of_slots = self.slot_truth if self.associates else filters.slot_to_id
-        reward = (self._weights, raw.collided, self.last, self.terms, self.rewards)
-        left = belief_outputs(
-            belief,
-            (truth_of_slots, raw.worlds.poses, self.truth),
-            self.diagnostics,
-            self._entropy_of.kernel_args,
-            self.entropy,
-            self._entropy_ok,
-            self._passthrough_readings,
-            None if self.coverage is None else self.coverage.kernel_args,
-            self._tail,
-            self.swept_fraction,
-            reward,
-            touched,
-            stepping,
-        )
+        outputs = self._step_args().outputs
+        belief, reward = outputs[0], outputs[-1]
+        left = belief_outputs(*outputs, touched, stepping)
         if left:  # the rare entropy that round-off left to the eigenvalues
             self._entropy_of.finish(filters.P, filters.n, self.entropy, self._entropy_ok, touched)
             step_reward(

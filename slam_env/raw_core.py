@@ -214,14 +214,17 @@ class RawCore(BatchCore):
         self._touched = np.zeros(b, dtype=bool)  # the sub-envs a step moves or resets
         self._step_args: tuple[Any, ...] = ()  # raw_step's, from the blocks to `out_fields`
 
-    # Views of one sub-env's rows (see _row_views): never pickled, as a view would come
-    # back as a copy, detached from the arrays.
+    # Views of one sub-env's rows (see _row_views) and the kernel's arguments: never
+    # pickled (a view would come back as a copy, detached from its array), rebuilt.
+    _TRANSIENT = ("_views", "_step_args")
+
     def __getstate__(self) -> dict[str, Any]:
-        return {k: v for k, v in self.__dict__.items() if k != "_views"}
+        return {k: v for k, v in self.__dict__.items() if k not in self._TRANSIENT}
 
     def __setstate__(self, state: dict[str, Any]) -> None:
         self.__dict__.update(state)
         self._views = {}
+        self._step_args = ()
 
     def _row_views(self, index: int) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray]]:
         """Views of sub-env ``index``'s rows of what :meth:`observation` and :meth:`info`

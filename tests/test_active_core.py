@@ -125,3 +125,31 @@ def test_an_entropy_left_to_the_eigenvalues_is_paid_once_known() -> None:
     weight = ActiveSLAMRewardWeights().information_gain
     assert core.terms[0, 0] == weight * (baseline - expected)
     assert core.rewards[0] == sum(core.terms[0].tolist())
+
+
+@pytest.mark.parametrize("env_id", ["slam_env/ActiveSLAM-v0", "slam_env/Landmarks-v0"])
+def test_a_copy_steps_its_own_arrays(env_id) -> None:
+    # The cores keep their kernels' arguments between steps; a pickled copy must build
+    # its own, over its own arrays (the coverage grid's included), not step detached
+    # copies of the original's.
+    import pickle
+
+    env = gym.make(env_id)
+    env.reset(seed=3)
+    env.action_space.seed(3)
+    actions = [env.action_space.sample() for _ in range(60)]
+    for action in actions[:30]:
+        env.step(action)
+    clone = pickle.loads(pickle.dumps(env))
+    core, twin = env.unwrapped._core, clone.unwrapped._core
+    coverage = getattr(core, "coverage", None)
+    swept_before = None if coverage is None else coverage.padded.sum()
+    for action in actions[30:]:
+        assert_same(env.step(action), clone.step(action))
+    poses = core.worlds.poses if coverage is None else core.raw.worlds.poses
+    twin_poses = twin.worlds.poses if coverage is None else twin.raw.worlds.poses
+    assert np.array_equal(poses, twin_poses)
+    assert not np.shares_memory(poses, twin_poses)
+    if coverage is not None:
+        assert twin.coverage.padded.sum() > swept_before  # the copy's grid was swept
+        assert np.array_equal(coverage.padded, twin.coverage.padded)
