@@ -15,9 +15,13 @@ wreck any filter's heading). Moves are at most half the robot's radius, so no sp
 tunnels through anything. One query first checks whether anything is within reach of
 the whole step; in free space that is the only query, and often none is needed: each
 query also bounds the clearance around its point, which settles the next moves
-exactly (see :meth:`World._clearance`). The compiled kernel settles every step that
-needs no query (turning in place, or the whole step inside the disk an earlier query
-found clear); only the others come back to Python and pymunk (:meth:`World._settle`).
+exactly (see :meth:`World._clearance`), and a query that finds a shape gives a point
+of it, which settles blocked moves and bisection midpoints the same way (see
+:meth:`World._contact`): the same answers as one query per question, far fewer
+queries. The compiled kernel settles every step that needs no query (turning in
+place, or the whole step inside the disk an earlier query found clear); only the
+others come back to Python and pymunk (:meth:`World._settle`). A batched core keeps
+one world per sub-env and relays it at each reset (:meth:`World.relayout`).
 
 The static geometry lives in pymunk, which moves the robot through its public API, and
 also in arrays (:mod:`slam_env.kernels.geometry`, a batch of one world) for the

@@ -478,20 +478,21 @@ class CountingSpace:
         return self.space.point_query_nearest(*args)
 
 
-def test_a_robot_pressed_into_a_wall_needs_no_query() -> None:
+@pytest.mark.parametrize("start, wall_x", [((1.0, 2.5, math.pi), 0.0), ((9.0, 2.5, 0.0), 10.0)])
+def test_a_robot_pressed_into_a_wall_needs_no_query(start, wall_x) -> None:
     # Each query that finds a shape keeps a point of it: what lies closer than the
     # robot's radius to that point is blocked without asking again.
     w = world()
-    w.set_pose(1.0, 2.5, math.pi)  # facing the boundary x = 0
+    w.set_pose(*start)  # facing a boundary wall
     while not w.step(1.0, 0.0):
         pass
     counting = CountingSpace(w._space)
     w._space = counting
     pressed = [w.step(1.0, 0.0) for _ in range(20)]
     assert all(pressed) and counting.queries == 0
-    assert w.pose[0] == pytest.approx(R, abs=STOP)
+    assert abs(w.pose[0] - wall_x) == pytest.approx(R, abs=STOP)
     w.step(-1.0, 0.0)  # backing off is checked, and free
-    assert counting.queries > 0 and w.pose[0] > R + 0.1
+    assert counting.queries > 0 and abs(w.pose[0] - wall_x) > R + 0.1
 
 
 def test_clearance_answers_like_a_point_query() -> None:
