@@ -362,3 +362,22 @@ def test_record_video_of_the_env(tmp_path):
     env.close()
     videos = list((tmp_path / "videos").glob("*.mp4"))
     assert len(videos) == 1 and videos[0].stat().st_size > 1000
+
+
+@pytest.mark.parametrize("motion_model", ["odometry", "velocity"])
+def test_the_odometry_reads_the_first_uniforms_of_its_step(motion_model) -> None:
+    # A step's uniforms are laid out as the odometry reading's, then the scan's, then
+    # the faults' (RawCore): the reading is the model's noisy control at the first ones.
+    from slam_env.kernels.odometry import noisy_control
+
+    env = gym.make(ENV_ID, motion_model=motion_model)
+    env.reset(seed=4)
+    core = env.unwrapped._core
+    rng = np.random.default_rng(4)
+    for _ in range(40):
+        env.step(rng.uniform(-1.0, 1.0, 2).astype(np.float32))
+        true = core.control_true[0].tolist() + [0.0] * (3 - core.control_dim)
+        expected = noisy_control(
+            core.velocity_model, *true, core._noise, core.blocks.uniforms[0], 0
+        )
+        assert core.control[0].tolist() == list(expected[: core.control_dim])
