@@ -1,21 +1,11 @@
-"""Tests for slam_env.sensors: visibility, wrapping, exactness, noise statistics,
-odometry noise against the α-model, determinism.
-
-Statistical tolerances come from the sampling distributions (every check is at
-N_SE standard errors, with an explicit seed): for n i.i.d. draws of a zero-mean
-Gaussian error with variance σ²,
-  sample mean        SE = σ / √n
-  sample variance    SE = σ² · √(2 / (n − 1))
-  sample covariance  SE = σi σj / √(n − 1)     (independent components)
-  Σ whitened²        χ²(ν): mean ν, SD √(2ν)  (ν large: normal approximation)
-plus a Kolmogorov–Smirnov test of the whitened errors against N(0, 1). Only numpy
-and the standard library are used.
+"""Tests for slam_env.sensors.LandmarkSensor: visibility, wrapping, exactness, noise
+statistics (tests/sensor_references.py), detection probability and cap, determinism,
+and the draws bit for bit. The odometry sensor's are in tests/test_odometry_sensor.py.
 """
 
 from __future__ import annotations
 
 import cmath
-import itertools
 import math
 
 import numpy as np
@@ -23,23 +13,13 @@ import pytest
 
 from slam_env.config import OdometryConfig, SensorConfig
 from slam_env.geometry import wrap_angle
-from slam_env.sensors import (
-    Detections,
-    LandmarkSensor,
-    OdometrySensor,
-)
+from slam_env.sensors import Detections, LandmarkSensor
+from tests.sensor_references import N_SE, assert_gaussian_errors, box_muller, ref_wrap
 
-N_SE = 5.0  # standard errors allowed in every statistical check
 PI = math.pi
 
 
 # ---------------------------------------------------------------- references
-
-
-def ref_wrap(a):
-    """Independent wrap to [−π, π): the phase of e^{ia}, with +π sent to −π."""
-    out = np.angle(np.exp(1j * np.asarray(a, dtype=np.float64)))
-    return np.where(out >= PI, out - 2 * PI, out)
 
 
 def ref_range_bearing(pose, m):
@@ -55,85 +35,6 @@ def ref_cartesian(pose, m):
     x, y, th = pose
     dx, dy = m[0] - x, m[1] - y
     return math.cos(th) * dx + math.sin(th) * dy, -math.sin(th) * dx + math.cos(th) * dy
-
-
-def ref_odometry_cov(u, a):
-    r1, t, r2 = u
-    return np.diag(
-        [
-            a[0] * r1**2 + a[1] * t**2,
-            a[2] * t**2 + a[3] * (r1**2 + r2**2),
-            a[0] * r2**2 + a[1] * t**2,
-        ]
-    )
-
-
-def ref_velocity_cov(u, noise):
-    sp, sth, bp, bth = noise
-    return np.diag([sp**2 + bp * u[0] ** 2, sth**2 + bth * u[1] ** 2])
-
-
-def apply_odometry(pose, u):
-    """g of seed 000: rotate δrot1, translate δtr, rotate δrot2."""
-    x, y, th = pose
-    r1, t, r2 = u
-    return (x + t * math.cos(th + r1), y + t * math.sin(th + r1), th + r1 + r2)
-
-
-def apply_velocity(pose, u):
-    """f of seed 004: translate Δp along the heading, then rotate Δθ."""
-    x, y, th = pose
-    dp, dth = u
-    return (x + dp * math.cos(th), y + dp * math.sin(th), th + dth)
-
-
-def ks_pvalue_standard_normal(w: np.ndarray) -> float:
-    """Asymptotic p-value of the one-sample KS test of w against N(0, 1), with
-    Stephens' small-sample correction λ = (√n + 0.12 + 0.11/√n)·D."""
-    x = np.sort(np.asarray(w, dtype=np.float64).ravel())
-    n = x.size
-    cdf = 0.5 * (1.0 + np.frompyfunc(math.erf, 1, 1)(x / math.sqrt(2.0)).astype(np.float64))
-    i = np.arange(1, n + 1)
-    d = max(float(np.max(i / n - cdf)), float(np.max(cdf - (i - 1) / n)))
-    lam = (math.sqrt(n) + 0.12 + 0.11 / math.sqrt(n)) * d
-    p = 2.0 * sum((-1) ** (k - 1) * math.exp(-2.0 * k * k * lam * lam) for k in range(1, 101))
-    return min(max(p, 0.0), 1.0)
-
-
-def assert_gaussian_errors(err: np.ndarray, cov: np.ndarray, what: str) -> None:
-    """err (n, d) should be i.i.d. N(0, cov) with cov diagonal. Zero-variance
-    components must be exactly zero."""
-    n, dim = err.shape
-    var = np.diag(cov)
-    mean = err.mean(axis=0)
-    sample_cov = np.atleast_2d(np.cov(err, rowvar=False, ddof=1))
-    for i in range(dim):
-        if var[i] == 0.0:
-            assert np.all(err[:, i] == 0.0), f"{what}: component {i} should be noiseless"
-            continue
-        se_mean = math.sqrt(var[i] / n)
-        assert abs(mean[i]) <= N_SE * se_mean, (
-            f"{what}: mean[{i}]={mean[i]:.3g} vs SE {se_mean:.3g}"
-        )
-        se_var = var[i] * math.sqrt(2.0 / (n - 1))
-        assert abs(sample_cov[i, i] - var[i]) <= N_SE * se_var, (
-            f"{what}: var[{i}]={sample_cov[i, i]:.4g}, model {var[i]:.4g}, SE {se_var:.3g}"
-        )
-        for j in range(i + 1, dim):
-            if var[j] == 0.0:
-                continue
-            se_cov = math.sqrt(var[i] * var[j] / (n - 1))
-            assert abs(sample_cov[i, j]) <= N_SE * se_cov, (
-                f"{what}: cov[{i},{j}]={sample_cov[i, j]:.3g}, SE {se_cov:.3g}"
-            )
-    # whitened errors: jointly Gaussian (KS) and the total χ² in its central range
-    live = var > 0
-    w = err[:, live] / np.sqrt(var[live])
-    p_ks = ks_pvalue_standard_normal(w)
-    assert p_ks > 1e-6, f"{what}: whitened errors not N(0,1) (KS p={p_ks:.2g})"
-    chi2 = float(np.sum(w * w))
-    dof = w.size
-    assert abs(chi2 - dof) <= N_SE * math.sqrt(2.0 * dof), f"{what}: χ²={chi2:.1f}, {dof} dof"
 
 
 def all_seeing(**kw) -> SensorConfig:
@@ -487,8 +388,6 @@ def test_bad_inputs_raise():
         sensor.sense((0.0, 0.0, 0.0), np.zeros((3, 2)), np.arange(4), RNG(0))
     with pytest.raises(TypeError):
         LandmarkSensor(OdometryConfig())  # type: ignore[arg-type]
-    with pytest.raises(TypeError):
-        OdometrySensor(SensorConfig())  # type: ignore[arg-type]
 
 
 # ---------------------------------------------------------------- determinism
@@ -522,138 +421,10 @@ def test_same_seed_same_detections_and_permutation_invariance():
         assert np.array_equal(perm[dd.index], da.index)
 
 
-def test_same_seed_same_odometry():
-    for model in ("odometry", "velocity"):
-        sensor = OdometrySensor(OdometryConfig(motion_model=model))
-        poses = [(0.1 * t, 0.05 * t * t, 0.2 * t) for t in range(20)]
-        r1, r2, r3 = RNG(17), RNG(17), RNG(18)
-        a = [sensor.measure(p0, p1, r1) for p0, p1 in itertools.pairwise(poses)]
-        b = [sensor.measure(p0, p1, r2) for p0, p1 in itertools.pairwise(poses)]
-        c = [sensor.measure(p0, p1, r3) for p0, p1 in itertools.pairwise(poses)]
-        assert all(np.array_equal(x, y) for x, y in zip(a, b, strict=True))
-        assert not all(np.array_equal(x, y) for x, y in zip(a, c, strict=True))
-
-
-# ---------------------------------------------------------------- odometry
-
-ODOMETRY_PATH = [  # (name, true control (δrot1, δtr, δrot2))
-    ("straight", (0.0, 0.5, 0.0)),
-    ("turning", (0.2, 0.4, 0.3)),
-    ("reversing", (0.0, -0.3, 0.0)),
-    ("in_place_turn", (0.0, 0.0, 1.2)),
-    ("reverse_turning", (-0.1, -0.4, 0.25)),
-    ("half_turn", (0.0, 0.0, 3.0)),  # noise makes δrot2 cross ±π
-]
-
-VELOCITY_PATH = [  # (name, true control (Δp, Δθ))
-    ("straight", (0.5, 0.0)),
-    ("turning", (0.3, 0.4)),
-    ("reversing", (-0.3, 0.0)),
-    ("in_place_turn", (0.0, -1.0)),
-    ("standing", (0.0, 0.0)),
-]
-
-
-def _path(start, controls, apply):
-    poses = [start]
-    for _, u in controls:
-        poses.append(apply(poses[-1], u))
-    return poses
-
-
-def test_odometry_true_control_recovers_the_driven_path():
-    sensor = OdometrySensor(OdometryConfig(motion_model="odometry"))
-    assert sensor.dim == 3
-    poses = _path((1.0, -2.0, 2.8), ODOMETRY_PATH, apply_odometry)
-    for (name, u), p0, p1 in zip(ODOMETRY_PATH, poses[:-1], poses[1:], strict=True):
-        got = sensor.true_control(p0, p1)
-        assert got.shape == (3,) and got.dtype == np.float64
-        assert np.allclose(got, u, atol=1e-12), name
-        assert np.allclose(apply_odometry(p0, got)[:2], p1[:2], atol=1e-12)
-
-
-def test_velocity_true_control_recovers_the_driven_path():
-    sensor = OdometrySensor(OdometryConfig(motion_model="velocity"))
-    assert sensor.dim == 2
-    poses = _path((1.0, -2.0, -2.8), VELOCITY_PATH, apply_velocity)
-    for (name, u), p0, p1 in zip(VELOCITY_PATH, poses[:-1], poses[1:], strict=True):
-        got = sensor.true_control(p0, p1)
-        assert got.shape == (2,) and got.dtype == np.float64
-        assert np.allclose(got, u, atol=1e-12), name
-
-
-ALPHAS = (0.05, 0.01, 0.03, 0.02)
-
-
-@pytest.mark.parametrize("segment", range(len(ODOMETRY_PATH)), ids=[n for n, _ in ODOMETRY_PATH])
-def test_odometry_noise_matches_alpha_model(segment):
-    sensor = OdometrySensor(OdometryConfig(motion_model="odometry", alphas=ALPHAS))
-    assert sensor.alphas == ALPHAS
-    poses = _path((1.0, -2.0, 2.8), ODOMETRY_PATH, apply_odometry)
-    p0, p1 = poses[segment], poses[segment + 1]
-    u = sensor.true_control(p0, p1)
-    m = ref_odometry_cov(u, ALPHAS)
-    assert np.allclose(sensor.noise_cov(u), m, rtol=1e-14, atol=0)
-    rng = RNG(100 + segment)
-    n = 20000
-    draws = np.array([sensor.measure(p0, p1, rng) for _ in range(n)])
-    assert np.all(draws[:, [0, 2]] >= -PI) and np.all(draws[:, [0, 2]] < PI)
-    err = draws - u
-    err[:, 0] = ref_wrap(err[:, 0])
-    err[:, 2] = ref_wrap(err[:, 2])
-    assert_gaussian_errors(err, m, f"odometry/{ODOMETRY_PATH[segment][0]}")
-
-
-def test_odometry_half_turn_wraps_delta_rot2():
-    sensor = OdometrySensor(OdometryConfig(motion_model="odometry", alphas=ALPHAS))
-    rng = RNG(19)
-    draws = np.array([sensor.measure((0, 0, 0), (0, 0, 3.0), rng) for _ in range(2000)])
-    # σ(δrot2) = √(α1·9) ≈ 0.67 rad: a good share of readings cross π and wrap negative
-    assert np.mean(draws[:, 2] < 0) > 0.2
-    assert np.all(draws[:, 2] >= -PI) and np.all(draws[:, 2] < PI)
-
-
-VELOCITY_NOISE = (0.01, 0.005, 0.02, 0.03)
-
-
-@pytest.mark.parametrize("segment", range(len(VELOCITY_PATH)), ids=[n for n, _ in VELOCITY_PATH])
-def test_velocity_noise_matches_sigma_u(segment):
-    sensor = OdometrySensor(OdometryConfig(motion_model="velocity", velocity_noise=VELOCITY_NOISE))
-    assert sensor.velocity_noise == VELOCITY_NOISE
-    poses = _path((1.0, -2.0, -2.8), VELOCITY_PATH, apply_velocity)
-    p0, p1 = poses[segment], poses[segment + 1]
-    u = sensor.true_control(p0, p1)
-    su = ref_velocity_cov(u, VELOCITY_NOISE)
-    assert np.allclose(sensor.noise_cov(u), su, rtol=1e-14, atol=0)
-    rng = RNG(200 + segment)
-    n = 20000
-    draws = np.array([sensor.measure(p0, p1, rng) for _ in range(n)])
-    err = draws - u
-    err[:, 1] = ref_wrap(err[:, 1])
-    assert_gaussian_errors(err, su, f"velocity/{VELOCITY_PATH[segment][0]}")
-
-
-def test_noise_free_odometry_is_exact_and_perturb_checks_shape():
-    for model, cfg in (
-        ("odometry", OdometryConfig(motion_model="odometry", alphas=(0.0, 0.0, 0.0, 0.0))),
-        ("velocity", OdometryConfig(motion_model="velocity", velocity_noise=(0.0, 0.0, 0.0, 0.0))),
-    ):
-        sensor = OdometrySensor(cfg)
-        p0, p1 = (0.3, -0.2, 1.0), (0.7, 0.1, 1.4)
-        assert np.array_equal(sensor.measure(p0, p1, RNG(0)), sensor.true_control(p0, p1)), model
-        with pytest.raises(ValueError):
-            sensor.perturb(np.zeros(sensor.dim + 1), RNG(0))
-
-
 # ---------------------------------------------------------------- the draws
 # The sensors draw one block of uniforms per call; these tests hold them to a plain
 # Python transcription of their documented steps, bit for bit (the seeded stream
 # depends on it).
-
-
-def box_muller(u1, u2):
-    r = math.sqrt(-2.0 * math.log(1.0 - u1))
-    return r * math.cos(2.0 * math.pi * u2), r * math.sin(2.0 * math.pi * u2)
 
 
 def reference_sense(sensor, pose, pos, ids, rng, los=None):
@@ -729,24 +500,3 @@ def test_sense_takes_positions_in_any_memory_layout():
     for other in (np.asfortranarray(pos), wide[:, ::2], pos.tolist()):
         det = sensor.sense((0.3, -0.4, 0.8), other, ids, RNG(0))
         assert det.z.tobytes() == ref.z.tobytes() and det.index.tolist() == ref.index.tolist()
-
-
-@pytest.mark.parametrize("model", ["odometry", "velocity"])
-def test_perturb_is_bitwise_its_documented_formula(model):
-    sensor = OdometrySensor(OdometryConfig(motion_model=model))
-    rng = RNG(303)
-    for t in range(500):
-        u = rng.normal(0.0, [1.0, 0.5, 3.0][: sensor.dim]) * rng.choice([0.0, 1e-3, 1.0])
-        r1, r2 = RNG(t), RNG(t)
-        out = sensor.perturb(u, r1)
-        w = r2.random(4 if model == "odometry" else 2).tolist()
-        e = (
-            [*box_muller(w[0], w[1]), *box_muller(*w[2:])]
-            if model == "odometry"
-            else [*box_muller(w[0], w[1])]
-        )
-        std = np.sqrt(np.diagonal(sensor.noise_cov(u))).tolist()
-        expected = [ui + si * ei for ui, si, ei in zip(u.tolist(), std, e, strict=False)]
-        for i in sensor.angle_indices:
-            expected[i] = wrap_angle(expected[i])
-        assert out.dtype == np.float64 and out.tolist() == expected
