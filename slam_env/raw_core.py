@@ -232,17 +232,8 @@ class RawCore(BatchCore):
         much as copying it)."""
         views = self._views.get(index)
         if views is None:
-            out, worlds = self.out, self.worlds
-            obs = {
-                "odometry": out.odometry[index],
-                "detections": out.detections[index],
-                "ids": out.ids[index],
-                "mask": out.mask[index],
-            }
-            if self._beam_angles.size:
-                obs["scan"] = self.scan[index]
-            if self.config.sensor.bumper:
-                obs["bumper"] = out.bumper[index]
+            worlds = self.worlds
+            obs = {key: array[index] for key, array in self._observed().items()}
             info = {
                 "pose": worlds.poses[index],
                 "landmark_positions": worlds.landmarks[index],
@@ -359,18 +350,23 @@ class RawCore(BatchCore):
 
     def observations(self) -> dict[str, np.ndarray]:
         """Every sub-env's observation, stacked (B, …), fresh arrays."""
+        return {key: array.copy() for key, array in self._observed().items()}
+
+    def _observed(self) -> dict[str, np.ndarray]:
+        """The (B, …) arrays of the observation, by key (the scan and the bumper where
+        the sensor has them)."""
         out = self.out
-        obs = {
-            "odometry": out.odometry.copy(),
-            "detections": out.detections.copy(),
-            "ids": out.ids.copy(),
-            "mask": out.mask.copy(),
+        arrays = {
+            "odometry": out.odometry,
+            "detections": out.detections,
+            "ids": out.ids,
+            "mask": out.mask,
         }
         if self._beam_angles.size:
-            obs["scan"] = self.scan.copy()
+            arrays["scan"] = self.scan
         if self.config.sensor.bumper:
-            obs["bumper"] = out.bumper.copy()
-        return obs
+            arrays["bumper"] = out.bumper
+        return arrays
 
     def frame(self, index: int, trail: Any, belief: Any = None) -> Any:
         """The plain-data :class:`slam_env.rendering.Frame` of sub-env ``index``, with its
