@@ -52,12 +52,8 @@ class Drive:
                 self.counts, self.reaches, blocked,
             )  # fmt: skip
             if flagged >= 0:
-                return self.flagged() if flagged else []
+                return np.flatnonzero(self.counts).tolist() if flagged else []
             self.make_room(-flagged, commands, active)  # nothing moved yet
-
-    def flagged(self) -> list[int]:
-        """The robots the last call flagged."""
-        return np.flatnonzero(self.counts).tolist()
 
     def make_room(self, needed: int, commands: np.ndarray, active: np.ndarray) -> None:
         """Grow :attr:`moves` to ``needed`` moves a robot, which the kernel asked for

@@ -22,7 +22,7 @@ from slam_env.kernels.faults import (
 )
 from slam_env.kernels.observe import RawOutputs, RawParams
 from slam_env.kernels.odometry import odometry_uniforms
-from slam_env.kernels.raw_step import MOTION_FLAGGED, raw_step
+from slam_env.kernels.raw_step import raw_step
 from slam_env.kernels.sensing import SensorParams, scan_uniforms
 from slam_env.layouts import Layout
 from slam_env.random_blocks import RandomBlocks
@@ -254,6 +254,7 @@ class RawCore(BatchCore):
         same kernel calls. A reset scan has no faults and pays nothing. Returns the new
         episodes' layouts, in the order of ``resetting``."""
         worlds = self.worlds
+        worlds.move(commands, stepping, self.collided)
         touched = self._touched
         np.copyto(touched, stepping)
         layouts = []
@@ -266,14 +267,13 @@ class RawCore(BatchCore):
             self.control[b] = 0.0
             self.control_true[b] = 0.0
             touched[b] = True
-        # The resets first (their robots do not move), then the step in one kernel call.
         if self.faults_on and self.config.faults.kidnap_rate > 0.0:
             # The kidnapping comes between the odometry reading and the scans.
-            self._raw_step(commands, stepping, read=True, sense=False)
+            self._raw_step(stepping, read=True, sense=False)
             self._kidnap(self.blocks.uniforms, stepping)
-            self._raw_step(commands, stepping, read=False, sense=True)
+            self._raw_step(stepping, read=False, sense=True)
         else:
-            self._raw_step(commands, stepping, read=True, sense=True)
+            self._raw_step(stepping, read=True, sense=True)
         out = self.out
         if self.config.terminate_when_all_detected:
             np.logical_and(out.all_seen, stepping, out=self.terminated)
@@ -292,14 +292,11 @@ class RawCore(BatchCore):
             for b in np.flatnonzero(events).tolist():
                 self.kidnapped[b] = self.worlds.kidnap(b, self.rngs[b])
 
-    def _raw_step(
-        self, commands: np.ndarray, stepping: np.ndarray, read: bool, sense: bool
-    ) -> None:
-        """If ``read``, the motion of the ``stepping`` robots by ``commands``, the uniforms
-        of the touched sub-envs and the odometry readings (and their faults) of the
-        stepping ones; if ``sense``, the scans and observations: one call of
-        :func:`~slam_env.kernels.raw_step.raw_step`, and more only where it stops for
-        Python."""
+    def _raw_step(self, stepping: np.ndarray, read: bool, sense: bool) -> None:
+        """If ``read``, the uniforms of the touched sub-envs and the odometry readings
+        (and their faults) of the ``stepping`` ones; if ``sense``, the scans and
+        observations: one call of :func:`~slam_env.kernels.raw_step.raw_step`, and
+        another after refilling used-up blocks."""
         worlds = self.worlds
         args = self._step_args
         if not args or args[4] is not worlds.geometry_fields:  # a reset replaced them
@@ -322,16 +319,8 @@ class RawCore(BatchCore):
                 self._params_fields,
                 self._out_fields,
             )
-        motion = worlds.motion_args(commands) if read else None
-        while stopped := raw_step(motion, *args, stepping, read, sense):
-            if stopped > 0:  # blocks used up: nothing done yet
-                self.blocks.refill(stopped, self.rngs)
-            elif stopped == MOTION_FLAGGED:  # moved, but for these robots' queries
-                worlds.settle(self.collided)
-                motion = None
-            else:  # a command that needs more moves than the buffer holds: nothing done
-                worlds.make_room(-stopped, commands, stepping)
-                motion = worlds.motion_args(commands)
+        while used_up := raw_step(*args, stepping, read, sense):  # nothing done yet
+            self.blocks.refill(used_up, self.rngs)
 
     @property
     def beam_angles(self) -> np.ndarray:

@@ -91,33 +91,11 @@ class WorldBatch:
         into ``collided`` (B,). Returns the poses before the step (:attr:`before`, which
         the next call overwrites)."""
         np.copyto(self.before, self.poses)
-        self._drive(self.poses, self.disks, commands, active, collided)
-        self.settle(collided)
-        return self.before
-
-    def motion_args(self, commands: np.ndarray) -> tuple[Any, ...]:
-        """The motion of ``commands`` ((B, 2) float64) as
-        :func:`slam_env.kernels.raw_step.raw_step` takes it: after
-        :data:`~slam_env.kernels.raw_step.MOTION_FLAGGED`, :meth:`settle` the robots it
-        flagged; after a shortage of moves, :meth:`make_room` and new arguments."""
         drive = self._drive
-        return (
-            commands, self.disks, drive.radius, drive.dt, drive.substeps, drive.moves,
-            drive.counts, drive.reaches,
-        )  # fmt: skip
-
-    def make_room(self, needed: int, commands: np.ndarray, active: np.ndarray) -> None:
-        """Room for ``needed`` moves a robot (see :meth:`slam_env.drive.Drive.make_room`:
-        ``ValueError`` if too many)."""
-        self._drive.make_room(needed, commands, active)
-
-    def settle(self, collided: np.ndarray) -> None:
-        """Settle the robots the motion kernel flagged with clearance queries, each
-        one's collision flag into ``collided``."""
-        drive = self._drive
-        for b in drive.flagged():
+        for b in drive(self.poses, self.disks, commands, active, collided):
             moves = drive.moves[b, : drive.counts[b]]
             collided[b] = self.worlds[b]._settle(moves, float(drive.reaches[b]))
+        return self.before
 
     def __setstate__(self, state: dict[str, Any]) -> None:
         # A copy's worlds hold copies of their rows: give them the copy's own.

@@ -1,13 +1,11 @@
-"""The raw step of B worlds in one kernel call (see
-:class:`slam_env.raw_core.RawCore`): the robots' motion, the step's uniforms, the
-odometry reading, the landmark scan, its faults, the proximity scan and the raw
-observation. They chain the kernels of :mod:`~slam_env.kernels.motion`,
-:mod:`~slam_env.random_blocks`, :mod:`~slam_env.kernels.odometry`,
+"""The raw step of B worlds once their robots have moved, in one kernel call (see
+:class:`slam_env.raw_core.RawCore`): the step's uniforms, the odometry reading, the
+landmark scan, its faults, the proximity scan and the raw observation. They chain the
+kernels of :mod:`~slam_env.random_blocks`, :mod:`~slam_env.kernels.odometry`,
 :mod:`~slam_env.kernels.sensing`, :mod:`~slam_env.kernels.faults` and
 :mod:`~slam_env.kernels.observe`; as one call, a batch of one pays numba's dispatch
-once, and each array is passed once. What needs Python (the clearance queries of
-robots near something, refilling a block of uniforms, a kidnapping) stops the call
-for the caller, who calls again."""
+once, and each array is passed once. What needs Python (refilling a block of
+uniforms, a kidnapping) stops the call for the caller, who calls again."""
 
 from __future__ import annotations
 
@@ -15,19 +13,14 @@ import numpy as np
 
 from slam_env.kernels import kernel
 from slam_env.kernels.faults import corrupt_odometry, corrupt_scans
-from slam_env.kernels.motion import drive
 from slam_env.kernels.observe import observe_raw
 from slam_env.kernels.odometry import read_odometry
 from slam_env.kernels.sensing import proximity_scan, sense_landmarks
 from slam_env.random_blocks import take_rows, used_up_rows
 
-# raw_step's answer when it moved the robots but some wait for clearance queries.
-MOTION_FLAGGED = -1
-
 
 @kernel
 def raw_step(
-    motion: tuple | None,
     random_blocks: tuple,
     odometry: tuple,
     odometry_faults: tuple | None,
@@ -47,26 +40,17 @@ def raw_step(
     read: bool,
     sense: bool,
 ) -> int:
-    """The step of each ``touched`` world: if ``read``, the motion of each ``stepping``
-    robot (unless ``motion`` is None: moved already), then the world's uniforms (the
-    next row of its block) and each stepping robot's odometry reading; then, if
-    ``sense``, :func:`sense_and_observe` (a kidnapping comes between the two, in
-    Python).
+    """The step of each ``touched`` world once the robots have moved: if ``read``, its
+    uniforms (the next row of its block) and each ``stepping`` robot's odometry
+    reading; then, if ``sense``, :func:`sense_and_observe` (a kidnapping comes between
+    the two, in Python). A world whose block is used up stops the call before anything
+    is done: it returns how many there are, listed in the blocks' ``used_up``, for the
+    caller to refill them and call again; else 0.
 
-    Returns 0 when done. Otherwise it stopped for the caller to act and call again:
-    - n > 0: n worlds' blocks are used up, listed in the blocks' ``used_up``; nothing
-      was done;
-    - :data:`MOTION_FLAGGED`: the robots moved, but those flagged (``counts[b] > 0``)
-      wait for their clearance queries; call again with ``motion`` None;
-    - below that: minus the moves a step needs, more than ``moves`` holds (see
-      :func:`~slam_env.kernels.motion.drive`); nothing was done.
-
-    ``motion``: ``(commands, disks, radius, dt, substeps, moves, counts, reaches)`` as
-    :func:`~slam_env.kernels.motion.drive` takes them (the poses are the first of
-    ``worlds``, the contact flags ``collided``); ``random_blocks``: ``(blocks, cursor,
-    uniforms, used_up)`` of :class:`~slam_env.random_blocks.RandomBlocks`;
-    ``odometry``: ``(before, velocity_model, noise, control_true, control)``,
-    ``before`` the poses before the motion, as
+    ``random_blocks``: ``(blocks, cursor, uniforms, used_up)`` of
+    :class:`~slam_env.random_blocks.RandomBlocks`; ``odometry``: ``(before,
+    velocity_model, noise, control_true, control)``, ``before`` the poses before the
+    motion (those after are the first of ``worlds``), as
     :func:`~slam_env.kernels.odometry.read_odometry` takes them; ``odometry_faults``:
     None, or ``(dropout, bias, offset)`` of
     :func:`~slam_env.kernels.faults.corrupt_odometry`; the rest as
@@ -74,23 +58,13 @@ def raw_step(
     ``collided``)."""
     blocks, cursor, uniforms, used_up = random_blocks
     before, velocity_model, noise, control_true, control = odometry
-    poses = worlds[0]
     if read:
         n = used_up_rows(blocks, cursor, touched, used_up)
         if n:
             return n
-        if motion is not None:
-            commands, disks, radius, dt, substeps, moves, counts, reaches = motion
-            before[:] = poses
-            flagged = drive(
-                poses, disks, commands, stepping, radius, dt, substeps, moves, counts, reaches,
-                collided,
-            )  # fmt: skip
-            if flagged:
-                return MOTION_FLAGGED if flagged > 0 else flagged
         take_rows(blocks, cursor, touched, uniforms)
         read_odometry(
-            before, poses, velocity_model, noise, uniforms, 0, stepping, control_true, control
+            before, worlds[0], velocity_model, noise, uniforms, 0, stepping, control_true, control
         )
         if odometry_faults is not None:
             dropout, bias, fault_offset = odometry_faults
