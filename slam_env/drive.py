@@ -40,16 +40,19 @@ class Drive:
         commands: np.ndarray,
         active: np.ndarray,
         blocked: np.ndarray,
+        geometry_fields: tuple | None,
     ) -> list[int]:
         """Move the ``active`` ((B,) bool) robots of ``poses`` ((B, 3), in place) with
         clear disks ``disks`` ((B, 3)) by ``commands`` ((B, 2) float64); ``blocked[b]``
-        ((B,) bool) becomes False for each.
+        ((B,) bool) becomes False for each. With the worlds' static geometry
+        (``geometry_fields``, else None) the kernel settles the robots far from every
+        shape itself.
         Returns the flagged robots, whose positions the caller settles. ``ValueError``,
         with nothing moved, if a speed would take more than :attr:`max_moves` moves."""
         while True:
             flagged = drive(
                 poses, disks, commands, active, self.radius, self.dt, self.substeps, self.moves,
-                self.counts, self.reaches, blocked,
+                self.counts, self.reaches, blocked, geometry_fields,
             )  # fmt: skip
             if flagged >= 0:
                 return np.flatnonzero(self.counts).tolist() if flagged else []

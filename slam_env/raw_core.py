@@ -22,6 +22,7 @@ from slam_env.kernels.faults import (
 )
 from slam_env.kernels.observe import RawOutputs, RawParams
 from slam_env.kernels.odometry import odometry_uniforms
+from slam_env.kernels.pinning import pin
 from slam_env.kernels.raw_step import raw_step
 from slam_env.kernels.sensing import SensorParams, scan_uniforms
 from slam_env.layouts import Layout
@@ -212,11 +213,14 @@ class RawCore(BatchCore):
         self._out_fields = tuple(self.out)  # the active mask of one sub-env
         self._views: dict[int, tuple[dict[str, np.ndarray], dict[str, np.ndarray]]] = {}
         self._touched = np.zeros(b, dtype=bool)  # the sub-envs a step moves or resets
-        self._step_args: tuple[Any, ...] = ()  # raw_step's, from the blocks to `out_fields`
+        self._stepping = np.zeros(b, dtype=bool)  # the sub-envs a step moves
+        # raw_step's compiled code pinned to its arguments, and those arguments but the
+        # last two (see _raw_step).
+        self._step_call: tuple[Any, tuple[Any, ...]] | None = None
 
-    # Views of one sub-env's rows (see _row_views) and the kernel's arguments: never
-    # pickled (a view would come back as a copy, detached from its array), rebuilt.
-    _TRANSIENT = ("_views", "_step_args")
+    # Views of one sub-env's rows (see _row_views) and the kernel's call: never pickled
+    # (a view would come back as a copy, detached from its array), rebuilt.
+    _TRANSIENT = ("_views", "_step_call")
 
     def __getstate__(self) -> dict[str, Any]:
         return {k: v for k, v in self.__dict__.items() if k not in self._TRANSIENT}
@@ -224,7 +228,7 @@ class RawCore(BatchCore):
     def __setstate__(self, state: dict[str, Any]) -> None:
         self.__dict__.update(state)
         self._views = {}
-        self._step_args = ()
+        self._step_call = None
 
     def _row_views(self, index: int) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray]]:
         """Views of sub-env ``index``'s rows of what :meth:`observation` and :meth:`info`
@@ -255,6 +259,8 @@ class RawCore(BatchCore):
         episodes' layouts, in the order of ``resetting``."""
         worlds = self.worlds
         worlds.move(commands, stepping, self.collided)
+        np.copyto(self._stepping, stepping)  # into the array the call is pinned to
+        stepping = self._stepping
         touched = self._touched
         np.copyto(touched, stepping)
         layouts = []
@@ -269,11 +275,11 @@ class RawCore(BatchCore):
             touched[b] = True
         if self.faults_on and self.config.faults.kidnap_rate > 0.0:
             # The kidnapping comes between the odometry reading and the scans.
-            self._raw_step(stepping, read=True, sense=False)
+            self._raw_step(read=True, sense=False)
             self._kidnap(self.blocks.uniforms, stepping)
-            self._raw_step(stepping, read=False, sense=True)
+            self._raw_step(read=False, sense=True)
         else:
-            self._raw_step(stepping, read=True, sense=True)
+            self._raw_step(read=True, sense=True)
         out = self.out
         if self.config.terminate_when_all_detected:
             np.logical_and(out.all_seen, stepping, out=self.terminated)
@@ -292,15 +298,16 @@ class RawCore(BatchCore):
             for b in np.flatnonzero(events).tolist():
                 self.kidnapped[b] = self.worlds.kidnap(b, self.rngs[b])
 
-    def _raw_step(self, stepping: np.ndarray, read: bool, sense: bool) -> None:
+    def _raw_step(self, read: bool, sense: bool) -> None:
         """If ``read``, the uniforms of the touched sub-envs and the odometry readings
-        (and their faults) of the ``stepping`` ones; if ``sense``, the scans and
+        (and their faults) of the stepping ones; if ``sense``, the scans and
         observations: one call of :func:`~slam_env.kernels.raw_step.raw_step`, and
         another after refilling used-up blocks."""
         worlds = self.worlds
-        args = self._step_args
-        if not args or args[4] is not worlds.geometry_fields:  # a reset replaced them
-            args = self._step_args = (
+        call = self._step_call
+        # A reset may replace the geometry's arrays: then the call is pinned anew.
+        if call is None or call[1][4] is not worlds.geometry_fields:
+            args = (
                 self.blocks.kernel_args,
                 (worlds.before, self.velocity_model, self._noise, self.control_true, self.control),
                 (self._faults.odometry_dropout, self._bias, self._fault_offset)
@@ -318,8 +325,11 @@ class RawCore(BatchCore):
                 self.seen,
                 self._params_fields,
                 self._out_fields,
+                self._stepping,
             )
-        while used_up := raw_step(*args, stepping, read, sense):  # nothing done yet
+            call = self._step_call = (pin(raw_step, *args, read, sense), args)
+        compiled, args = call
+        while used_up := compiled(*args, read, sense):  # nothing done yet
             self.blocks.refill(used_up, self.rngs)
 
     @property

@@ -296,7 +296,9 @@ class World:
         commands = drive.commands
         commands[0, 0] = v
         commands[0, 1] = omega
-        if drive(self._pose, self._disk, commands, np.ones(1, dtype=bool), np.zeros(1, dtype=bool)):
+        # The queries only: a World is the reference that a WorldBatch, which also
+        # settles steps from the static geometry, is tested against.
+        if drive(self._pose, self._disk, commands, np.ones(1, dtype=bool), np.zeros(1, bool), None):
             return self._settle(drive.moves[0, : drive.counts[0]], float(drive.reaches[0]))
         return False
 

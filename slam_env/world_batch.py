@@ -92,7 +92,7 @@ class WorldBatch:
         the next call overwrites)."""
         np.copyto(self.before, self.poses)
         drive = self._drive
-        for b in drive(self.poses, self.disks, commands, active, collided):
+        for b in drive(self.poses, self.disks, commands, active, collided, self.geometry_fields):
             moves = drive.moves[b, : drive.counts[b]]
             collided[b] = self.worlds[b]._settle(moves, float(drive.reaches[b]))
         return self.before

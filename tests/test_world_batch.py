@@ -72,6 +72,40 @@ def test_moving_the_batch_is_stepping_each_world(preset) -> None:
     assert n_collisions > 20  # contacts were resolved, not only free moves
 
 
+def count_queries(world: World, counter: list[int]) -> None:
+    """Count ``world``'s pymunk point queries in ``counter[0]``."""
+    space = world._space
+    query = space.point_query_nearest
+
+    def counted(*args):
+        counter[0] += 1
+        return query(*args)
+
+    space.point_query_nearest = counted
+
+
+def test_the_batch_settles_steps_far_from_every_shape_without_a_query() -> None:
+    """The batch's worlds, whose kernel knows the static geometry, ask pymunk
+    fewer clearance queries than the standalone worlds they match pose for pose."""
+    config = EnvConfig()
+    batch, twins = batch_and_twins(config)
+    asked_by_batch, asked_by_twins = [0], [0]
+    for b in range(B):
+        count_queries(batch.worlds[b], asked_by_batch)
+        count_queries(twins[b], asked_by_twins)
+    rng = np.random.default_rng(3)
+    collided = np.zeros(B, dtype=bool)
+    robot = config.robot
+    for _ in range(300):  # a random agent's commands: it wanders more than it presses
+        command = rng.uniform(-1.0, 1.0, (B, 2)) * (robot.max_speed, robot.max_turn_rate)
+        batch.move(command, np.ones(B, dtype=bool), collided)
+        for b, twin in enumerate(twins):
+            assert collided[b] == twin.step(*command[b].tolist())
+            assert batch.poses[b].tolist() == list(twin.pose)
+    # (Most of the queries left are the contacts' bisections.)
+    assert asked_by_batch[0] < 0.85 * asked_by_twins[0], (asked_by_batch, asked_by_twins)
+
+
 @pytest.mark.parametrize("how", ["pickle", "deepcopy"])
 def test_a_copied_batch_moves_its_own_worlds(how) -> None:
     config = EnvConfig()

@@ -7,8 +7,9 @@ n = max(substeps, ⌈|v|·dt / (MAX_MOVE_FRACTION·radius)⌉) moves: each turns
 anything: the thinnest obstacle (a post or a wall) plus the robot is wider.
 
 :func:`drive` settles every robot that needs no clearance query (turning in place, or
-the whole step inside the disk that an earlier query found free) and flags the others
-with their moves, which the caller resolves with pymunk's point queries
+the whole step inside the disk that an earlier query found free, or, given the static
+geometry, farther from every shape than the step reaches) and flags the others with
+their moves, which the caller resolves with pymunk's point queries
 (:meth:`slam_env.world.World._settle`): the queries stay pymunk's, the arithmetic of the
 moves is written here once.
 """
@@ -20,6 +21,8 @@ import math
 import numpy as np
 
 from slam_env.kernels import inline_kernel, kernel
+from slam_env.kernels.clearance import clearance
+from slam_env.kernels.geometry import StaticGeometry
 
 MAX_MOVE_FRACTION = 0.5  # longest single move, in robot radii (no tunnelling)
 # Slack (m) for round-off when a move is settled from an earlier query's answer; the
@@ -62,13 +65,15 @@ def drive(
     counts: np.ndarray,
     reaches: np.ndarray,
     blocked: np.ndarray,
+    geometry_fields: tuple | None,
 ) -> int:
     """Drive each ``active`` robot b for ``dt`` s at ``commands[b] = (v, ω)``.
 
     Args:
         poses: (B, 3) (x, y, θ) m, m, rad; updated in place (see below).
         disks: (B, 3) each robot's clear disk (cx, cy, d): nothing it can hit lies
-            closer than d to (cx, cy). Read only.
+            closer than d to (cx, cy). Replaced by the disk up to the nearest shape
+            where the geometry shows that one clears a step the old disk did not.
         commands: (B, 2) speed (m/s) and turn rate (rad/s), finite.
         active: (B,) bool, the robots that move.
         radius: the robots' radius, m. dt: the step, s. substeps: the fewest moves.
@@ -78,6 +83,8 @@ def drive(
             it of its start can block any of its moves.
         blocked: (B,) bool out: False for every active robot (a flagged robot's is
             the caller's to set).
+        geometry_fields: the worlds' :class:`~slam_env.kernels.geometry.StaticGeometry`
+            as a plain tuple, or None (a world that has only pymunk's queries).
 
     An unflagged robot's pose is final. A flagged one (moving, and its reach not inside
     its clear disk) has its final heading (the rotation goes on when a contact stops the
@@ -116,6 +123,13 @@ def drive(
             reach = radius + abs(v) * dt
             gap = math.hypot(x - disks[b, 0], y - disks[b, 1])
             free = disks[b, 2] - gap - CLEARANCE_SLACK >= reach
+            if not free and geometry_fields is not None:
+                # The distance to the nearest shape, as a query would find it: clear
+                # by the slack, the step is free (so a query would say), else flagged.
+                clear = clearance(StaticGeometry(*geometry_fields), b, x, y)
+                if clear - CLEARANCE_SLACK >= reach:
+                    free = True
+                    disks[b, 0], disks[b, 1], disks[b, 2] = x, y, clear
             if not free:
                 counts[b] = n
                 reaches[b] = reach

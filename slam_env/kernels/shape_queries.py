@@ -29,7 +29,13 @@ import numpy as np
 from slam_env.kernels import inline_kernel, kernel
 from slam_env.kernels.geometry import N_POLYGONS, N_SEGMENTS, StaticGeometry
 
-__all__ = ["POLYGON_PARALLEL_TOLERANCE", "box_entry", "query_box_entry", "shape_alpha"]
+__all__ = [
+    "POLYGON_PARALLEL_TOLERANCE",
+    "box_entry",
+    "distance_sq_to_segment",
+    "query_box_entry",
+    "shape_alpha",
+]
 
 # cpPolyShapeSegmentQuery skips an edge when |a·n − b·n| is below this ("10e-6").
 POLYGON_PARALLEL_TOLERANCE = 1e-5
@@ -98,7 +104,7 @@ def _clamp01(num: float, den: float) -> float:
 
 
 @kernel
-def _distance_sq_to_segment(
+def distance_sq_to_segment(
     px: float, py: float, ax: float, ay: float, bx: float, by: float
 ) -> float:
     """|p − c|² for c = cpClosetPointOnSegment(p, a, b), with Chipmunk's rounding.
@@ -149,7 +155,7 @@ def _segment_shape_alpha(
 ) -> float:
     """The capsule from (sax, say) to (sbx, sby) of radius r and unit normal (nx, ny):
     0 when a is within r of the segment, else cpSegmentShapeSegmentQuery."""
-    if math.sqrt(_distance_sq_to_segment(ax, ay, sax, say, sbx, sby)) - r <= 0.0:
+    if math.sqrt(distance_sq_to_segment(ax, ay, sax, say, sbx, sby)) - r <= 0.0:
         return 0.0
     d = (sax - ax) * nx + (say - ay) * ny
     fx, fy = (-nx, -ny) if d > 0.0 else (nx, ny)  # the normal facing a
@@ -203,7 +209,7 @@ def _polygon_shape_alpha(
     for i in range(n):  # on an edge: its closest point is at distance 0
         j = i - 1 if i > 0 else n - 1
         px, py = verts[b, k, j, 0], verts[b, k, j, 1]
-        if _distance_sq_to_segment(ax, ay, px, py, verts[b, k, i, 0], verts[b, k, i, 1]) == 0.0:
+        if distance_sq_to_segment(ax, ay, px, py, verts[b, k, i, 0], verts[b, k, i, 1]) == 0.0:
             return 0.0
 
     alpha = 1.0

@@ -7,6 +7,8 @@ import math
 import numpy as np
 import pytest
 
+from slam_env.kernels.clearance import clearance
+from slam_env.kernels.geometry import empty_geometry, set_world
 from slam_env.kernels.motion import (
     CLEARANCE_SLACK,
     MAX_MOVE_FRACTION,
@@ -14,6 +16,7 @@ from slam_env.kernels.motion import (
     drive,
     wrap_heading,
 )
+from tests.kernels.geometry_worlds import WALL, world_layouts
 
 RADIUS, DT, SUBSTEPS = 0.25, 0.2, 4
 
@@ -82,7 +85,7 @@ def test_drive_is_the_python_loop(seed) -> None:
     capacity = 64
     moves, counts, reaches, blocked = outputs(b, capacity)
     start, disks_before = poses.copy(), disks.copy()
-    args = (RADIUS, DT, SUBSTEPS, moves, counts, reaches, blocked)
+    args = (RADIUS, DT, SUBSTEPS, moves, counts, reaches, blocked, None)
     flagged = drive(poses, disks, commands, active, *args)
     assert flagged == np.count_nonzero(counts) > 0
     np.testing.assert_array_equal(disks, disks_before)
@@ -122,7 +125,7 @@ def test_the_clear_disk_boundary() -> None:
             poses = np.array([pose])
             disks = np.array([[cx, cy, disk_radius]])
             moves, counts, reaches, blocked = outputs(1, SUBSTEPS)
-            args = (RADIUS, DT, SUBSTEPS, moves, counts, reaches, blocked)
+            args = (RADIUS, DT, SUBSTEPS, moves, counts, reaches, blocked, None)
             drive(poses, disks, np.array([[v, omega]]), np.ones(1, bool), *args)
             expected, flagged, _ = reference(pose, (cx, cy, disk_radius), v, omega)
             assert (counts[0] > 0) == flags == (flagged is not None)
@@ -146,10 +149,43 @@ def test_a_reach_exactly_on_the_disk_edge_is_free() -> None:
             clear = math.nextafter(clear, 0.0)
         for disk_radius, flags in ((clear, False), (math.nextafter(clear, 0.0), True)):
             moves, counts, reaches, blocked = outputs(1, SUBSTEPS)
-            args = (RADIUS, DT, SUBSTEPS, moves, counts, reaches, blocked)
+            args = (RADIUS, DT, SUBSTEPS, moves, counts, reaches, blocked, None)
             disks = np.array([[pose[0], pose[1], disk_radius]])
             drive(np.array([pose]), disks, np.array([[v, omega]]), np.ones(1, bool), *args)
             assert (counts[0] > 0) == flags
+
+
+def test_the_geometry_settles_robots_farther_from_every_shape_than_their_reach() -> None:
+    """Given the static geometry, a robot whose disk does not hold its step is settled
+    in the kernel (the reference's free loop, its disk now up to the nearest shape) when
+    every shape lies beyond its reach by the slack, and flagged as before otherwise."""
+    layout = world_layouts()[0]
+    b = 400
+    geometry = set_world(empty_geometry(b), 0, layout, WALL)
+    for world in range(1, b):
+        geometry = set_world(geometry, world, layout, WALL)
+    rng = np.random.default_rng(5)
+    poses, _, commands = random_robots(rng, b)
+    poses[:, 0] = rng.uniform(0.3, layout.width - 0.3, b)
+    poses[:, 1] = rng.uniform(0.3, layout.height - 0.3, b)
+    disks = np.tile([0.0, 0.0, -math.inf], (b, 1))  # no query yet
+    start, active = poses.copy(), np.ones(b, dtype=bool)
+    moves, counts, reaches, blocked = outputs(b, 64)
+    args = (RADIUS, DT, SUBSTEPS, moves, counts, reaches, blocked, tuple(geometry))
+    drive(poses, disks, commands, active, *args)
+    kinds = set()
+    for i in range(b):
+        x, y = start[i, :2].tolist()
+        v, omega = commands[i].tolist()
+        clear = clearance(geometry, i, x, y)
+        settled = v * DT / SUBSTEPS != 0.0 and clear - CLEARANCE_SLACK >= RADIUS + abs(v) * DT
+        disk = (x, y, clear) if settled else (0.0, 0.0, -math.inf)
+        pose, flagged, _ = reference(start[i].tolist(), disk, v, omega)
+        assert disks[i].tolist() == list(disk), i
+        assert poses[i].tolist() == (list(pose) if flagged is None else [x, y, pose[2]]), i
+        assert (counts[i] > 0) == (flagged is not None), i
+        kinds.add("settled" if settled else "flagged" if flagged else "turn")
+    assert kinds == {"settled", "flagged", "turn"}
 
 
 @pytest.mark.parametrize("speed", [3.0, 1e6, 1e300, math.inf, math.nan])
@@ -159,7 +195,7 @@ def test_too_many_moves_change_nothing_and_say_how_many(speed) -> None:
     commands[3, 0] = speed
     before = [a.copy() for a in (poses, disks, commands)]
     moves, counts, reaches, blocked = outputs(8, SUBSTEPS)
-    args = (RADIUS, DT, SUBSTEPS, moves, counts, reaches, blocked)
+    args = (RADIUS, DT, SUBSTEPS, moves, counts, reaches, blocked, None)
     needed = drive(poses, disks, commands, np.ones(8, bool), *args)
     moves_per_step = abs(speed) * DT / (MAX_MOVE_FRACTION * RADIUS)
     expected = math.ceil(moves_per_step) if moves_per_step < TOO_MANY_MOVES else TOO_MANY_MOVES

@@ -1,0 +1,28 @@
+"""A kernel's compiled code for one fixed set of argument types, called without
+numba's dispatch.
+
+At every call numba's dispatcher types each argument to pick the compiled code, about
+0.1 µs an array; a core's step passes the same few dozen arrays to the same kernel at
+every step, so that typing costs more than the kernel's work. :func:`pin` does it
+once: it returns the compiled code for the types of the arguments it is shown, which
+the caller then calls with arguments of exactly those types.
+
+The compiled code trusts its arguments: one of another type is undefined behaviour,
+not an error. So a caller pins only arguments that cannot change type (arrays it owns
+and never replaces, Python scalars of fixed type), and pins again when it replaces one.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any
+
+
+def pin(kernel: Callable[..., Any], *args: Any) -> Callable[..., Any]:
+    """``kernel``'s compiled code for the numba types of ``args`` (compiled or loaded
+    from the cache now if need be), to be called with arguments of exactly these
+    types; ``kernel`` itself where it is not compiled (numba's JIT disabled)."""
+    compile_for = getattr(kernel, "compile", None)
+    if compile_for is None:
+        return kernel
+    return compile_for(tuple(kernel.typeof_pyval(arg) for arg in args))

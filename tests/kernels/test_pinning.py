@@ -1,0 +1,58 @@
+"""A pinned kernel is the kernel: the same results for the types it was pinned to,
+compiled by the pin when it never ran, and plain Python where numba does not compile."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from slam_env.kernels import kernel
+from slam_env.kernels.pinning import pin
+
+
+@kernel
+def _scaled_sum(values: np.ndarray, weights: tuple, scale: float, out: np.ndarray) -> int:
+    """``out[i] = scale · Σ_k weights[k][i] · values[i]``; returns how many are > 0."""
+    positive = 0
+    for i in range(values.shape[0]):
+        total = 0.0
+        for w in weights:
+            total += w[i] * values[i]
+        out[i] = scale * total
+        positive += out[i] > 0.0
+    return positive
+
+
+def _arguments(rng: np.random.Generator):
+    values = rng.normal(size=7)
+    weights = (rng.normal(size=7), rng.normal(size=7))
+    return values, weights, 1.5, np.zeros(7)
+
+
+def test_a_pinned_kernel_gives_the_kernels_results() -> None:
+    rng = np.random.default_rng(0)
+    args = _arguments(rng)
+    pinned = pin(_scaled_sum, *args)
+    for _ in range(3):
+        values, weights, scale, out = _arguments(rng)  # new arrays of the same types
+        expected = np.zeros_like(out)
+        count = _scaled_sum(values, weights, scale, expected)
+        assert pinned(values, weights, scale, out) == count
+        assert out.tolist() == expected.tolist()
+
+
+def test_pinning_compiles_a_kernel_that_never_ran() -> None:
+    @kernel
+    def doubled(values: np.ndarray) -> float:
+        return 2.0 * values.sum()
+
+    assert doubled.signatures == []
+    pinned = pin(doubled, np.ones(3))
+    assert len(doubled.signatures) == 1
+    assert pinned(np.arange(4.0)) == 12.0
+
+
+def test_a_plain_function_is_its_own_pin() -> None:
+    def plain(x: float) -> float:
+        return x + 1.0
+
+    assert pin(plain, 1.0) is plain
