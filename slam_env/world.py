@@ -20,8 +20,12 @@ of it, which settles blocked moves and bisection midpoints the same way (see
 :meth:`World._contact`): the same answers as one query per question, far fewer
 queries. The compiled kernel settles every step that needs no query (turning in
 place, or the whole step inside the disk an earlier query found clear); only the
-others come back to Python and pymunk (:meth:`World._settle`). A batched core keeps
-one world per sub-env and relays it at each reset (:meth:`World.relayout`).
+others come back to Python and pymunk (:meth:`World._settle`). A
+:class:`~slam_env.world_batch.WorldBatch` also hands the kernel its worlds' static
+geometry, from which it settles the steps that no shape comes near (the distance a
+query would find, :mod:`slam_env.kernels.clearance`); a standalone world asks pymunk,
+and is the reference the batch is tested against. A batched core keeps one world per
+sub-env and relays it at each reset (:meth:`World.relayout`).
 
 The static geometry lives in pymunk, which moves the robot through its public API, and
 also in arrays (:mod:`slam_env.kernels.geometry`, a batch of one world) for the

@@ -20,7 +20,8 @@ class WorldBatch:
     the clearance queries of the robots' motion and resolves their contacts) and, for
     the kernels, the true poses (B, 3) and the clear disks (B, 3) (each world's pose
     and disk are its row of these), the landmarks (B, N, 2) with their IDs (B, N) and
-    ID order (B, N), and the static geometry.
+    ID order (B, N), and the static geometry (from which the motion kernel settles the
+    steps that no shape comes near, without a query: :meth:`move`).
 
     A fixed world (a preset or a user layout) is built once and shared by every
     sub-env; with ``preset="random"`` each reset draws a new world from the sub-env's
