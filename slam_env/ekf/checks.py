@@ -118,21 +118,21 @@ def landmark_id(value: Any) -> int:
 
 
 def control_into(u: Any, row: np.ndarray, model: str) -> None:
-    """Write the control u into ``row`` ((dim,) float64, the kernel's input). Its
-    values are checked by the kernel: a non-finite one comes back as
-    :func:`bad_control`. Tuples of floats and real arrays of the right shape take a
-    short path (this runs at every step)."""
-    if type(u) is np.ndarray:
-        if u.shape == row.shape and u.dtype.kind in "fiu":
-            row[:] = u
-            return
-    elif type(u) is tuple and len(u) == row.shape[0]:
-        for v in u:
-            if type(v) is not float:
-                break
-        else:
-            row[:] = u
-            return
+    """Write the control u into ``row`` ((dim,) float64, the kernel's input; scratch:
+    a refused control may leave part of it written). Its values are checked by the
+    kernel: a non-finite one comes back as :func:`bad_control`. Tuples of floats and
+    real arrays of the right shape take a short path (this runs at every step)."""
+    if type(u) is tuple:
+        if len(u) == len(row):
+            for i, v in enumerate(u):
+                if type(v) is not float:
+                    break
+                row[i] = v
+            else:
+                return
+    elif type(u) is np.ndarray and u.shape == row.shape and u.dtype.kind in "fiu":
+        row[:] = u
+        return
     arr = real_array(u, "u")
     if arr.shape != row.shape:
         raise ValueError(f"u must have shape {row.shape} for the {model} model, got {arr.shape}")
@@ -145,28 +145,36 @@ def bad_control(u: np.ndarray) -> ValueError:
 
 
 def observations(z: Any, ids: Any) -> tuple[np.ndarray, np.ndarray]:
-    """z as a C-contiguous float64 (1, k, 2) array (a batch of one; a view of z where
-    it can be) and the IDs as a fresh int64 (1, k) array (all -1 for ``None``). Their
-    values (finite, IDs in range and distinct) are checked by the kernel before it
-    changes anything; :func:`bad_observations` explains a refusal."""
-    if not (type(z) is np.ndarray and z.dtype is _FLOAT64):
+    """z as a float64 (1, k, 2) array (a batch of one; a view of z where z is a
+    C-contiguous, writable float64 array already, else a copy) and the IDs as a fresh
+    int64 (1, k) array (all -1 for ``None``). Both are C-contiguous and writable
+    whatever the caller passed, so that they are always of one numba type (the
+    filter's kernels are pinned to it). Their values (finite, IDs in range and
+    distinct) are checked by the kernel before it changes anything;
+    :func:`bad_observations` explains a refusal."""
+    if type(z) is not np.ndarray or z.dtype is not _FLOAT64:
         z = real_array(z, "z", "a (k, 2) array")
-    if z.ndim != 2 or z.shape[1] != 2:
-        raise ValueError(f"z must have shape (k, 2), got {z.shape}")
+    shape = z.shape
+    if len(shape) != 2 or shape[1] != 2:
+        raise ValueError(f"z must have shape (k, 2), got {shape}")
+    k = shape[0]
+    flags = z.flags
+    zb = z[None] if flags.c_contiguous and flags.writeable else z[None].copy()
     if ids is None:  # observations without IDs
-        ids = np.full(z.shape[0], -1, dtype=_INT64)
-    arr = ids if type(ids) is np.ndarray else np.asarray(ids)
-    if arr.ndim != 1 or arr.shape[0] != z.shape[0]:
-        raise ValueError(
-            f"ids must have shape ({z.shape[0]},) to match z {z.shape}, got {arr.shape}"
-        )
-    kind = arr.dtype.kind
+        return zb, np.full((1, k), -1, dtype=_INT64)
+    if type(ids) is not np.ndarray:
+        ids = np.asarray(ids)
+    if ids.shape != (k,):
+        raise ValueError(f"ids must have shape ({k},) to match z {shape}, got {ids.shape}")
+    if ids.dtype is _INT64:
+        return zb, ids.copy()[None]
+    kind = ids.dtype.kind
     if kind != "i":
-        if kind != "u" and arr.size:
-            raise TypeError(f"ids must be integers, got dtype {arr.dtype}")
-        if kind == "u" and arr.size and int(arr.max()) > np.iinfo(np.int64).max:
-            raise ValueError(f"landmark id {int(arr.max())} is beyond the int64 range")
-    return np.ascontiguousarray(z[None]), np.array(arr, dtype=_INT64, ndmin=2)
+        if kind != "u" and k:
+            raise TypeError(f"ids must be integers, got dtype {ids.dtype}")
+        if kind == "u" and k and int(ids.max()) > np.iinfo(np.int64).max:
+            raise ValueError(f"landmark id {int(ids.max())} is beyond the int64 range")
+    return zb, np.array(ids, dtype=_INT64, ndmin=2)
 
 
 def bad_observations(z: np.ndarray, ids: np.ndarray, max_landmarks: int) -> ValueError:

@@ -4,6 +4,7 @@ compiled by the pin when it never ran, and plain Python where numba does not com
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from slam_env.kernels import kernel
 from slam_env.kernels.pinning import pin
@@ -56,3 +57,27 @@ def test_a_plain_function_is_its_own_pin() -> None:
         return x + 1.0
 
     assert pin(plain, 1.0) is plain
+
+
+def test_pins_are_kept_by_their_argument_types(monkeypatch) -> None:
+    """Pinning again to arguments of the types already seen types nothing (a copied
+    filter pins in microseconds); arguments of another type get their own code."""
+    rng = np.random.default_rng(1)
+    args = _arguments(rng)
+    first = pin(_scaled_sum, *args)
+    readonly = args[0].copy()
+    readonly.flags.writeable = False
+
+    def no_typing(value):
+        raise AssertionError(f"typed again: {value!r}")
+
+    with monkeypatch.context() as patched:
+        patched.setattr(_scaled_sum, "typeof_pyval", no_typing)
+        assert pin(_scaled_sum, *_arguments(rng)) is first
+        with pytest.raises(AssertionError, match="typed again"):
+            pin(_scaled_sum, readonly, *args[1:])
+    other = pin(_scaled_sum, readonly, *args[1:])
+    assert other is not first
+    out, expected = np.zeros(7), np.zeros(7)
+    assert other(readonly, args[1], 2.0, out) == _scaled_sum(readonly, args[1], 2.0, expected)
+    assert out.tolist() == expected.tolist()
