@@ -3,16 +3,20 @@ shared machine, where wall-clock rates wander by tens of percent between runs.
 
     .venv/bin/python benchmarks/bench_instructions.py [--steps 250] [--warmup 100]
 
-Each env is stepped in a child process under ``valgrind --tool=callgrind`` twice, for
-0 and for ``--steps`` random steps after the same warm-up; the difference divided by
-``--steps`` is the cost of a step, imports and set-up cancelling out. A native vector
-env of B sub-envs takes ``--steps`` vector steps, and its figure is per env-step. With
-the defaults the counted steps of the slam envs hold no episode end (their episodes
-last 500 steps), so these are the costs of a step alone; a reset costs a few ms, paid
-once per episode (``bench_env.py``'s rates include it). The count is the same whatever
-else the machine is doing. It is not time: code that calls many small functions runs
-fewer instructions per second than tight compiled loops, so a ratio of instructions
-and the ratio of rates that ``bench_env.py`` measures differ.
+Each env is stepped in a child process under ``valgrind --tool=callgrind``: ``--warmup``
+random steps, then ``--steps`` more inside one ``functools.reduce`` call, and callgrind
+counts only what runs inside that call (``--collect-atstart=no
+--toggle-collect=functools_reduce``), so imports, set-up and warm-up are left out
+whatever they cost. (Counting a whole run and subtracting one without the steps, as
+this benchmark did before, left the start-up's own variation of millions of
+instructions in the figures of the single envs: a third of CartPole-v1's.) A native
+vector env of B sub-envs takes ``--steps`` vector steps, and its figure is per
+env-step. With the defaults the counted steps of the slam envs hold no episode end
+(their episodes last 500 steps), so these are the costs of a step alone; a reset costs
+a few ms, paid once per episode (``bench_env.py``'s rates include it). The count is the
+same whatever else the machine is doing. It is not time: code that calls many small
+functions runs fewer instructions per second than tight compiled loops, so a ratio of
+instructions and the ratio of rates that ``bench_env.py`` measures differ.
 """
 
 from __future__ import annotations
@@ -27,7 +31,15 @@ from concurrent.futures import ThreadPoolExecutor
 
 from slam_env.active_slam import DEFAULT_SCAN_BEAMS
 
-CALLGRIND = ("valgrind", "--tool=callgrind", "--callgrind-out-file=/dev/null")
+# Count only inside functools.reduce, which the child calls once, around the counted steps
+# (a C function of CPython's, so callgrind can name it).
+CALLGRIND = (
+    "valgrind",
+    "--tool=callgrind",
+    "--callgrind-out-file=/dev/null",
+    "--collect-atstart=no",
+    "--toggle-collect=functools_reduce",
+)
 
 # label -> (env ID, options, sub-envs or 0 for a single env); the raw rows are what
 # the wrapped ones are compared with.
@@ -47,22 +59,25 @@ ENVS = {
 }
 
 _CHILD = """
-import sys
+import functools
 import gymnasium as gym
 import slam_env
 env = gym.make({env_id!r}, **{options!r})
 env.action_space.seed(0)
 actions = [env.action_space.sample() for _ in range({warmup} + {steps})]
 env.reset(seed=0)
-for action in actions:
+def step(_, action):
     _, _, terminated, truncated, _ = env.step(action)
     if terminated or truncated:
         env.reset()
+for action in actions[:{warmup}]:
+    step(None, action)
+functools.reduce(step, actions[{warmup}:], None)
 """
 
 # A native vector env resets its sub-envs itself.
 _VECTOR_CHILD = """
-import sys
+import functools
 import gymnasium as gym
 import slam_env
 env = gym.make_vec({env_id!r}, num_envs={num_envs}, vectorization_mode="vector_entry_point",
@@ -70,14 +85,18 @@ env = gym.make_vec({env_id!r}, num_envs={num_envs}, vectorization_mode="vector_e
 env.action_space.seed(0)
 actions = [env.action_space.sample() for _ in range({warmup} + {steps})]
 env.reset(seed=0)
-for action in actions:
+def step(_, action):
     env.step(action)
+for action in actions[:{warmup}]:
+    step(None, action)
+functools.reduce(step, actions[{warmup}:], None)
 """
 
 
 def child_code(env_id: str, options: dict, num_envs: int, steps: int, warmup: int) -> str:
     """The child's program: make the env and take warmup + steps (vector steps of
-    ``num_envs`` sub-envs, or single-env steps if 0)."""
+    ``num_envs`` sub-envs, or single-env steps if 0), the last ``steps`` inside
+    ``functools.reduce``."""
     child = _VECTOR_CHILD if num_envs else _CHILD
     return child.format(
         env_id=env_id, options=options, num_envs=num_envs, steps=steps, warmup=warmup
@@ -92,7 +111,7 @@ CHILD_ENV = {**os.environ, "NUMBA_CPU_NAME": "generic"}
 
 
 def count(env_id: str, options: dict, num_envs: int, steps: int, warmup: int) -> int:
-    """Instructions of the child (:func:`child_code`) under callgrind."""
+    """Instructions of the child's counted steps (:func:`child_code`) under callgrind."""
     code = child_code(env_id, options, num_envs, steps, warmup)
     result = subprocess.run(
         [*CALLGRIND, sys.executable, "-c", code],
@@ -104,6 +123,11 @@ def count(env_id: str, options: dict, num_envs: int, steps: int, warmup: int) ->
     found = re.search(r"Collected : (\d+)", result.stderr)
     if found is None:
         raise RuntimeError(f"no instruction count in valgrind's output:\n{result.stderr}")
+    if int(found.group(1)) == 0:  # a Python built without its symbols
+        raise RuntimeError(
+            "callgrind counted nothing: it did not find CPython's functools_reduce "
+            f"(is {sys.executable} stripped of its symbols?)"
+        )
     return int(found.group(1))
 
 
@@ -133,13 +157,12 @@ def main(argv: list[str] | None = None) -> None:
         subprocess.run([sys.executable, "-c", code], check=True, env=CHILD_ENV)
     # The counts do not depend on load, so the children run side by side.
     with ThreadPoolExecutor(max_workers=os.cpu_count()) as pool:
-        runs = {}
-        for label, (env_id, options, b) in envs.items():
-            for n in (0, args.steps):
-                runs[label, n] = pool.submit(count, env_id, options, b, n, args.warmup)
+        runs = {
+            label: pool.submit(count, env_id, options, b, args.steps, args.warmup)
+            for label, (env_id, options, b) in envs.items()
+        }
         per_step = {
-            label: (runs[label, args.steps].result() - runs[label, 0].result())
-            / (args.steps * max(b, 1))
+            label: runs[label].result() / (args.steps * max(b, 1))
             for label, (_, _, b) in envs.items()
         }
 

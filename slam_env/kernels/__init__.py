@@ -19,7 +19,8 @@ Conventions every kernel follows:
   Python takes their fields as a plain tuple (``tuple(named)``) and rebuilds the
   NamedTuple inside (``Geometry(*fields)``): numba types a NamedTuple argument at
   every call for ~0.3 µs a field, a plain tuple for a fifth of that, and a step is
-  made of a few such calls.
+  made of a few such calls. A core that passes the same arrays at every step can skip
+  the typing altogether by pinning the call (:mod:`slam_env.kernels.pinning`).
 * Kernels draw no random numbers: they take uniforms drawn from each sub-env's own
   ``np_random`` (see :mod:`slam_env.kernels.random`), so that every sub-env replays
   the single env with the same seed.

@@ -23,7 +23,13 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Any
 
-from numba._dispatcher import compute_fingerprint
+try:  # numba's own, private: without it every pin types its arguments in Python
+    from numba._dispatcher import compute_fingerprint
+except ImportError:  # pragma: no cover (another numba)
+
+    def compute_fingerprint(value: Any) -> Any:
+        raise NotImplementedError
+
 
 _PINNED: dict[tuple[Any, ...], Callable[..., Any]] = {}
 
