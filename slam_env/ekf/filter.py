@@ -95,7 +95,6 @@ LINEARIZATIONS = tuple(_LINEARIZATION_CODES)
 # The association's gates by default: a landmark within the 99.9% χ² region of an
 # observation is compatible with it (as ActiveSLAM-v0's validation gate accepts it);
 # one within the 99.999% region forbids starting a new landmark there.
-_INT8 = np.dtype(np.int8)
 MATCH_PROBABILITY = 0.999
 NEW_LANDMARK_PROBABILITY = 0.99999
 
@@ -171,6 +170,7 @@ class UpdateResult:
         return self.status == Status.TENTATIVE
 
 
+_INT8 = np.dtype(np.int8)  # an update's status array
 _new_object = object.__new__
 _SET_RESULT_FIELDS = tuple(
     UpdateResult.__dict__[name].__set__ for name in ("ids", "status", "nis", "nearest")
