@@ -4,10 +4,13 @@ shared machine, where wall-clock rates wander by tens of percent between runs.
     .venv/bin/python benchmarks/bench_instructions.py [--steps 250] [--warmup 100]
 
 Each env is stepped in a child process under ``valgrind --tool=callgrind``: ``--warmup``
-random steps, then ``--steps`` more inside one ``functools.reduce`` call, and callgrind
+random steps, then ``--steps`` more inside one ``sys.call_tracing`` call, and callgrind
 counts only what runs inside that call (``--collect-atstart=no
---toggle-collect=functools_reduce``), so imports, set-up and warm-up are left out
-whatever they cost. (Counting a whole run and subtracting one without the steps, as
+--toggle-collect=sys_call_tracing``), so imports, set-up and warm-up are left out
+whatever they cost. (``sys.call_tracing``, a debuggers' hook that runs a function as
+it is when no tracer is set, because nothing in a step calls it: callgrind toggles its
+count at every entry and exit of the named function, so one that a step also called
+would switch the count off inside.) (Counting a whole run and subtracting one without the steps, as
 this benchmark did before, left the start-up's own variation of millions of
 instructions in the figures of the single envs: a third of CartPole-v1's.) A native
 vector env of B sub-envs takes ``--steps`` vector steps, and its figure is per
@@ -31,14 +34,14 @@ from concurrent.futures import ThreadPoolExecutor
 
 from slam_env.active_slam import DEFAULT_SCAN_BEAMS
 
-# Count only inside functools.reduce, which the child calls once, around the counted steps
-# (a C function of CPython's, so callgrind can name it).
+# Count only inside sys.call_tracing, which the child calls once, around the counted
+# steps (a C function of CPython's, so callgrind can name it).
 CALLGRIND = (
     "valgrind",
     "--tool=callgrind",
     "--callgrind-out-file=/dev/null",
     "--collect-atstart=no",
-    "--toggle-collect=functools_reduce",
+    "--toggle-collect=sys_call_tracing",
 )
 
 # label -> (env ID, options, sub-envs or 0 for a single env); the raw rows are what
@@ -59,7 +62,7 @@ ENVS = {
 }
 
 _CHILD = """
-import functools
+import sys
 import gymnasium as gym
 import slam_env
 env = gym.make({env_id!r}, **{options!r})
@@ -72,12 +75,12 @@ def step(_, action):
         env.reset()
 for action in actions[:{warmup}]:
     step(None, action)
-functools.reduce(step, actions[{warmup}:], None)
+sys.call_tracing(lambda: [step(None, action) for action in actions[{warmup}:]], ())
 """
 
 # A native vector env resets its sub-envs itself.
 _VECTOR_CHILD = """
-import functools
+import sys
 import gymnasium as gym
 import slam_env
 env = gym.make_vec({env_id!r}, num_envs={num_envs}, vectorization_mode="vector_entry_point",
@@ -89,14 +92,14 @@ def step(_, action):
     env.step(action)
 for action in actions[:{warmup}]:
     step(None, action)
-functools.reduce(step, actions[{warmup}:], None)
+sys.call_tracing(lambda: [step(None, action) for action in actions[{warmup}:]], ())
 """
 
 
 def child_code(env_id: str, options: dict, num_envs: int, steps: int, warmup: int) -> str:
     """The child's program: make the env and take warmup + steps (vector steps of
     ``num_envs`` sub-envs, or single-env steps if 0), the last ``steps`` inside
-    ``functools.reduce``."""
+    ``sys.call_tracing``."""
     child = _VECTOR_CHILD if num_envs else _CHILD
     return child.format(
         env_id=env_id, options=options, num_envs=num_envs, steps=steps, warmup=warmup
@@ -125,7 +128,7 @@ def count(env_id: str, options: dict, num_envs: int, steps: int, warmup: int) ->
         raise RuntimeError(f"no instruction count in valgrind's output:\n{result.stderr}")
     if int(found.group(1)) == 0:  # a Python built without its symbols
         raise RuntimeError(
-            "callgrind counted nothing: it did not find CPython's functools_reduce "
+            "callgrind counted nothing: it did not find CPython's sys_call_tracing "
             f"(is {sys.executable} stripped of its symbols?)"
         )
     return int(found.group(1))

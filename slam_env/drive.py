@@ -46,7 +46,8 @@ class Drive:
         clear disks ``disks`` ((B, 3)) by ``commands`` ((B, 2) float64); ``blocked[b]``
         ((B,) bool) becomes False for each. With the worlds' static geometry
         (``geometry_fields``, else None) the kernel settles the robots far from every
-        shape itself.
+        shape itself, and replaces their rows of ``disks`` with the wider disks it
+        found.
         Returns the flagged robots, whose positions the caller settles. ``ValueError``,
         with nothing moved, if a speed would take more than :attr:`max_moves` moves."""
         while True:

@@ -127,7 +127,8 @@ class World:
         # The pose (x, y, θ) and the clear disk (cx, cy, d: nothing the robot can hit
         # lies closer than d to (cx, cy)) as (1, 3) rows that the motion kernel reads:
         # the world's own, or a WorldBatch's (see _use_rows). _clear_disk mirrors the
-        # disk as Python floats for the queries.
+        # disk as Python floats for the queries; a batch's motion kernel may replace the
+        # row's disk, so _settle reads it back first.
         self._pose = np.zeros((1, 3))
         self._disk = np.zeros((1, 3))
         self._space: pymunk.Space | None = None
@@ -313,6 +314,8 @@ class World:
         contact; ``reach`` (m) bounds the whole step. Returns True if blocked."""
         pose = self._pose[0]
         x, y = float(pose[0]), float(pose[1])
+        cx, cy, clear = self._disk[0].tolist()  # the kernel's, if it found a wider one
+        self._clear_disk = (cx, cy, clear)
         blocked = False
         radius = self.robot.radius
         sx, sy = self._surface

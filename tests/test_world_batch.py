@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from slam_env.config import EnvConfig, WorldConfig
+from slam_env.faults import kidnap_pose
 from slam_env.world import World
 from slam_env.world_batch import WorldBatch
 
@@ -104,6 +105,30 @@ def test_the_batch_settles_steps_far_from_every_shape_without_a_query() -> None:
             assert batch.poses[b].tolist() == list(twin.pose)
     # (Most of the queries left are the contacts' bisections.)
     assert asked_by_batch[0] < 0.85 * asked_by_twins[0], (asked_by_batch, asked_by_twins)
+
+
+def test_kidnapped_worlds_still_move_as_their_twins() -> None:
+    """A robot carried elsewhere (a kidnapping: set_pose between moves) leaves its old
+    clear disk behind; the batch's worlds keep matching their standalone twins."""
+    config = EnvConfig(world=WorldConfig(preset="cluttered"))
+    batch, twins = batch_and_twins(config)
+    rng = np.random.default_rng(4)
+    collided = np.zeros(B, dtype=bool)
+    kidnaps = 0
+    for i in range(300):
+        if i % 25 == 24:
+            for b in np.flatnonzero(rng.random(B) < 0.5).tolist():
+                pose = kidnap_pose(twins[b], rng)
+                if pose is not None:
+                    batch.worlds[b].set_pose(*pose)
+                    twins[b].set_pose(*pose)
+                    kidnaps += 1
+        command = commands(rng, config)
+        batch.move(command, np.ones(B, dtype=bool), collided)
+        for b, twin in enumerate(twins):
+            assert collided[b] == twin.step(*command[b].tolist()), (i, b)
+            assert batch.poses[b].tolist() == list(twin.pose), (i, b)
+    assert kidnaps > 20
 
 
 @pytest.mark.parametrize("how", ["pickle", "deepcopy"])

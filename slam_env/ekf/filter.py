@@ -118,6 +118,8 @@ DISCARDED = Status.DISCARDED
 TENTATIVE = Status.TENTATIVE
 
 
+# Built by _update_result, which writes the slots without __init__: a field added here
+# must be added there too (and a __post_init__ would not run).
 @dataclass(frozen=True, slots=True)
 class UpdateResult:
     """Per-observation outcome of one ``EKFSLAM.update``, in the order given.

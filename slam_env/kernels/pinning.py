@@ -13,9 +13,12 @@ and never replaces, Python scalars of fixed type), and pins again when it replac
 
 Typing an argument in Python (numba's ``typeof``) and looking up the compiled code
 cost tens of microseconds an array, so the pins are kept by numba's own fingerprint
-of each argument's type (what its dispatcher keys its compiled code by): pinning
+of each argument's type (the key of its dispatcher's cache of argument types): pinning
 again to arguments of types already seen (a copied filter, a grown workspace) costs
-a fraction of a microsecond an argument.
+a fraction of a microsecond an argument. For arrays a fingerprint is at least as fine
+as numba's type (it also tells read-only and unaligned arrays apart); all Python ints
+share one, so a pinned int is an int64 (a larger one is refused by the call with an
+``OverflowError``). An argument without a fingerprint (a string) is typed at every pin.
 """
 
 from __future__ import annotations

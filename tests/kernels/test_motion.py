@@ -16,6 +16,7 @@ from slam_env.kernels.motion import (
     drive,
     wrap_heading,
 )
+from slam_env.layouts import LANDMARK_POST_RADIUS, Layout
 from tests.kernels.geometry_worlds import WALL, world_layouts
 
 RADIUS, DT, SUBSTEPS = 0.25, 0.2, 4
@@ -186,6 +187,39 @@ def test_the_geometry_settles_robots_farther_from_every_shape_than_their_reach()
         assert (counts[i] > 0) == (flagged is not None), i
         kinds.add("settled" if settled else "flagged" if flagged else "turn")
     assert kinds == {"settled", "flagged", "turn"}
+
+
+def test_a_reach_clear_of_the_nearest_shape_by_exactly_the_slack_is_free() -> None:
+    """Given the geometry, a step whose reach plus CLEARANCE_SLACK is the distance to the
+    nearest shape, to the last bit, is settled in the kernel; a robot one float nearer
+    to the shape is flagged."""
+    layout = Layout(
+        width=20.0,
+        height=20.0,
+        landmark_ids=(0,),
+        landmark_positions=((10.0, 10.0),),
+        start_pose=(5.0, 10.0, 0.0),
+    )
+    geometry = set_world(empty_geometry(1), 0, layout, WALL)
+    v, omega = 0.5, 0.3
+    reach = RADIUS + v * DT
+
+    def frees(x: float) -> bool:
+        return clearance(geometry, 0, x, 10.0) - CLEARANCE_SLACK >= reach
+
+    x = 10.0 - LANDMARK_POST_RADIUS - reach - CLEARANCE_SLACK  # left of the post
+    while not frees(x):
+        x = math.nextafter(x, -math.inf)
+    while frees(math.nextafter(x, math.inf)):
+        x = math.nextafter(x, math.inf)
+    for start_x, flagged in ((x, False), (math.nextafter(x, math.inf), True)):
+        moves, counts, reaches, blocked = outputs(1, SUBSTEPS)
+        args = (RADIUS, DT, SUBSTEPS, moves, counts, reaches, blocked, tuple(geometry))
+        disks = np.array([[0.0, 0.0, -math.inf]])
+        pose = np.array([[start_x, 10.0, 0.0]])
+        drive(pose, disks, np.array([[v, omega]]), np.ones(1, bool), *args)
+        assert (counts[0] > 0) == flagged
+        assert (disks[0, 2] == -math.inf) == flagged
 
 
 @pytest.mark.parametrize("speed", [3.0, 1e6, 1e300, math.inf, math.nan])

@@ -81,3 +81,25 @@ def test_pins_are_kept_by_their_argument_types(monkeypatch) -> None:
     out, expected = np.zeros(7), np.zeros(7)
     assert other(readonly, args[1], 2.0, out) == _scaled_sum(readonly, args[1], 2.0, expected)
     assert out.tolist() == expected.tolist()
+
+
+@kernel
+def _length_times(text: str, factor: float) -> float:
+    return len(text) * factor
+
+
+def test_an_argument_without_a_fingerprint_is_typed_at_every_pin(monkeypatch) -> None:
+    """numba cannot fingerprint a string: such a pin types its arguments every time
+    (and keeps nothing), and its code is still the kernel's."""
+    typed = []
+    typeof = _length_times.typeof_pyval
+
+    def counted(value):
+        typed.append(value)
+        return typeof(value)
+
+    monkeypatch.setattr(_length_times, "typeof_pyval", counted)
+    first = pin(_length_times, "abc", 2.0)
+    second = pin(_length_times, "wxyz", 0.5)
+    assert typed == ["abc", 2.0, "wxyz", 0.5]
+    assert first("abcd", 1.5) == second("abcd", 1.5) == 6.0
