@@ -12,14 +12,23 @@ import sys
 import textwrap
 
 import numpy as np
-import pymunk
 import pytest
 
 from slam_env.config import RobotConfig, WorldConfig
 from slam_env.layout_generators import preset_layout, random_layout
 from slam_env.layouts import Layout, _polygon_signed_distance, segment_distance
 from slam_env.world import _MOTION_FILTER, CONTACT_BISECTIONS, LANDMARK_POST_RADIUS, World
-from tests.world_samples import DT, ROBOT, SUBSTEPS, R, T, arena, pymunk_sees, world
+from tests.world_samples import (
+    DT,
+    ROBOT,
+    SUBSTEPS,
+    CountingSpace,
+    R,
+    T,
+    arena,
+    pymunk_sees,
+    world,
+)
 
 H = DT / SUBSTEPS
 # The robot never enters anything: round-off is all the overlap there can be.
@@ -407,18 +416,6 @@ def test_step_is_bit_identical_to_plain_queries(which) -> None:
         assert (w.step(v, omega), w.pose) == expected, f"step {i}"
         n_blocked += expected[0]
     assert n_blocked > 50  # the bisection was exercised
-
-
-class CountingSpace:
-    """A pymunk space that counts its point queries."""
-
-    def __init__(self, space: pymunk.Space) -> None:
-        self.space = space
-        self.queries = 0
-
-    def point_query_nearest(self, *args):
-        self.queries += 1
-        return self.space.point_query_nearest(*args)
 
 
 @pytest.mark.parametrize("start, wall_x", [((1.0, 2.5, math.pi), 0.0), ((9.0, 2.5, 0.0), 10.0)])

@@ -1,5 +1,5 @@
-"""The small world the World tests drive and look around in, and pymunk's own
-occlusion test they compare the compiled one with."""
+"""The small world the World tests drive and look around in, pymunk's own occlusion
+test they compare the compiled one with, and a space that counts its point queries."""
 
 from __future__ import annotations
 
@@ -41,3 +41,15 @@ def pymunk_sees(w: World, origin, target, landmark_index: int) -> bool:
     query_filter = pymunk.ShapeFilter(group=landmark_index + 1, mask=_ALL & ~CAT_ROBOT)
     o, t = (float(origin[0]), float(origin[1])), (float(target[0]), float(target[1]))
     return w.space.segment_query_first(o, t, 0.0, query_filter) is None
+
+
+class CountingSpace:
+    """A pymunk space that counts its point queries."""
+
+    def __init__(self, space: pymunk.Space) -> None:
+        self.space = space
+        self.queries = 0
+
+    def point_query_nearest(self, *args):
+        self.queries += 1
+        return self.space.point_query_nearest(*args)
