@@ -15,20 +15,22 @@ See :class:`slam_env.ekf.filter.EKFSLAM` for the contract and
 
 from slam_env.ekf.chi2 import chi2_gate, chi2_ppf
 from slam_env.ekf.filter import (
-    CORRECTED,
     CORRECTION_MODES,
     DATA_ASSOCIATIONS,
-    DISCARDED,
     EKFSLAM,
-    INITIALISED,
     LINEARIZATIONS,
+    kernel_config,
+)
+from slam_env.ekf.models import MEASUREMENT_MODELS, MOTION_MODELS
+from slam_env.ekf.results import (
+    CORRECTED,
+    DISCARDED,
+    INITIALISED,
     REJECTED,
     TENTATIVE,
     Status,
     UpdateResult,
-    kernel_config,
 )
-from slam_env.ekf.models import MEASUREMENT_MODELS, MOTION_MODELS
 
 __all__ = [
     "CORRECTED",
