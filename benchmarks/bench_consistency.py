@@ -85,6 +85,9 @@ ENV_ID = "slam_env/Landmarks-v0"
 
 # A variant: the EKFSLAM keyword arguments that make it (on top of filter_kwargs).
 # "jcbb2": JCBB with a new landmark started on its second sighting (against clutter).
+# "jcbbw": JCBB with a wide (loop-closing) pairing withheld until its landmark has been
+# paired that way in WIDE_PAIRING_SCANS consecutive scans; "jcbb2w" both.
+WIDE_PAIRING_SCANS = 3
 VARIANTS: dict[str, dict[str, Any]] = {
     "known/standard": {},
     "known/fej": {"linearization": "fej"},
@@ -92,10 +95,27 @@ VARIANTS: dict[str, dict[str, Any]] = {
     "nn/fej": {"data_association": "nearest_neighbor", "linearization": "fej"},
     "jcbb/standard": {"data_association": "jcbb"},
     "jcbb/fej": {"data_association": "jcbb", "linearization": "fej"},
+    "jcbbw/standard": {"data_association": "jcbb", "wide_pairing_scans": WIDE_PAIRING_SCANS},
+    "jcbbw/fej": {
+        "data_association": "jcbb",
+        "wide_pairing_scans": WIDE_PAIRING_SCANS,
+        "linearization": "fej",
+    },
     "jcbb2/standard": {"data_association": "jcbb", "new_landmark_sightings": 2},
     "jcbb2/fej": {
         "data_association": "jcbb",
         "new_landmark_sightings": 2,
+        "linearization": "fej",
+    },
+    "jcbb2w/standard": {
+        "data_association": "jcbb",
+        "new_landmark_sightings": 2,
+        "wide_pairing_scans": WIDE_PAIRING_SCANS,
+    },
+    "jcbb2w/fej": {
+        "data_association": "jcbb",
+        "new_landmark_sightings": 2,
+        "wide_pairing_scans": WIDE_PAIRING_SCANS,
         "linearization": "fej",
     },
 }

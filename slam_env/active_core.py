@@ -90,6 +90,7 @@ class ActiveCore(BatchCore):
             data_association=options.data_association,
             linearization=options.linearization,
             new_landmark_sightings=options.new_landmark_sightings,
+            wide_pairing_scans=options.wide_pairing_scans,
         )
         self.filters = FilterBatch(b, template, d)
         # Where the filters associate: the true landmark of each filter landmark, the

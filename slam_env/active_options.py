@@ -83,6 +83,7 @@ class ActiveSLAMOptions:
     data_association: str = "known"
     linearization: str = "standard"
     new_landmark_sightings: int = 1
+    wide_pairing_scans: int = 1
     weights: ActiveSLAMRewardWeights = field(init=False)
 
     def __post_init__(self) -> None:
@@ -96,6 +97,7 @@ class ActiveSLAMOptions:
         checks.choice("data_association", values["data_association"], DATA_ASSOCIATIONS)
         checks.choice("linearization", values["linearization"], LINEARIZATIONS)
         checks.new_landmark_sightings(values["new_landmark_sightings"])
+        checks.wide_pairing_scans(values["wide_pairing_scans"], values["data_association"])
         gate = values["gate"]
         if gate is not None and not _number("gate", gate) > 0.0:
             raise ValueError(f"gate must be > 0 (a χ² threshold) or None, got {gate!r}")

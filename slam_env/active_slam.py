@@ -48,7 +48,9 @@ class ActiveSLAMEnv(CoreEnv):
     the env's true noise), ``data_association`` (``"known"``: the sensor's IDs;
     ``"nearest_neighbor"`` | ``"jcbb"``: the filter chooses, needed with
     ``report_ids=False``), ``new_landmark_sightings`` (1, or 2: a new landmark waits
-    for a second sighting, which keeps clutter out of the map), ``linearization``
+    for a second sighting, which keeps clutter out of the map), ``wide_pairing_scans``
+    (1, or more with ``"jcbb"``: a loop-closing pairing waits for that many consecutive
+    scans, see :class:`slam_env.ekf.EKFSLAM`), ``linearization``
     (``"standard"`` | ``"fej"``),
     ``reward_weights`` (an :class:`ActiveSLAMRewardWeights` or a dict of its fields),
     ``coverage`` (default ``True``: a
@@ -93,6 +95,7 @@ class ActiveSLAMEnv(CoreEnv):
         data_association: str = "known",
         linearization: str = "standard",
         new_landmark_sightings: int = 1,
+        wide_pairing_scans: int = 1,
         **env_options: Any,
     ) -> None:
         opts = ActiveSLAMOptions(
@@ -107,6 +110,7 @@ class ActiveSLAMEnv(CoreEnv):
             data_association,
             linearization,
             new_landmark_sightings,
+            wide_pairing_scans,
         )
         check_option_names(env_options, ENV_ARGUMENTS + _OWN_ARGUMENTS)
         config = active_config(opts, env_options, num_envs=1)

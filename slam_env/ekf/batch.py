@@ -41,7 +41,7 @@ class FilterBatch:
         self.slot_to_id = np.full((b, m), -1, dtype=np.int64)
         self.n_rejected = np.zeros(b, dtype=np.int64)
         self.first = np.zeros((b, dmax))
-        self.tentative = np.full((b, association.TENTATIVE_ROWS, association.TENTATIVE_WIDTH), -1.0)
+        self.tentative = np.full((b, association.HELD_ROWS, association.TENTATIVE_WIDTH), -1.0)
         self.params = np.repeat(template._params, b, axis=0)
         self.modes = np.repeat(template._modes, b, axis=0)
         # The inputs of a step (controls; observations, their IDs and counts), its

@@ -110,6 +110,20 @@ def new_landmark_sightings(value: Any) -> int:
     return int(value)
 
 
+def wide_pairing_scans(value: Any, data_association: str) -> int:
+    """The consecutive scans a wide pairing waits for: an int >= 1 (bool refused);
+    more than 1 only with ``data_association="jcbb"``."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)):
+        raise TypeError(f"wide_pairing_scans must be an int, got {type(value).__name__}")
+    if value < 1:
+        raise ValueError(f"wide_pairing_scans must be >= 1, got {value}")
+    if value > 1 and data_association != "jcbb":
+        raise ValueError(
+            f"wide_pairing_scans > 1 needs data_association='jcbb', got {data_association!r}"
+        )
+    return int(value)
+
+
 def landmark_id(value: Any) -> int:
     """One landmark ID as an int (numpy integers accepted, bool refused)."""
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)):

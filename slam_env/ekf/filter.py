@@ -34,7 +34,10 @@ caller. ``"nearest_neighbor"`` and ``"jcbb"`` take observations without IDs and 
 the landmarks themselves (:mod:`slam_env.kernels.association`): individual
 compatibility within ``match_gate``, or Joint Compatibility Branch and Bound; an
 observation compatible with no landmark starts a new one only if none lies within the
-wider ``new_landmark_gate``, and is discarded otherwise. The filter then owns the
+wider ``new_landmark_gate``, and is discarded otherwise; with ``wide_pairing_scans``
+> 1, JCBB withholds a *wide* pairing (one whose innovation covariance dwarfs the
+sensor's noise: a loop closing) until its landmark has been paired that way, without a
+rival observation, in that many consecutive scans. The filter then owns the
 identities: a landmark's ID is its slot. ``linearization="fej"`` evaluates the
 Jacobians at the first estimates (:mod:`slam_env.kernels.ekf`); ``"standard"`` is the
 seeds' filter.
@@ -116,11 +119,13 @@ def kernel_config(
     linearization: str = "standard",
     association_gates: tuple[float, float] = (np.inf, np.inf),
     new_landmark_sightings: int = 1,
+    wide_pairing_scans: int = 1,
 ) -> tuple[np.ndarray, np.ndarray]:
     """One filter's configuration as the kernels of :mod:`slam_env.kernels.ekf` take
-    it: its row of ``params`` ((11,) float64: the motion noise (α1..α4, or σp, σθ, βp,
+    it: its row of ``params`` ((12,) float64: the motion noise (α1..α4, or σp, σθ, βp,
     βθ), Q00, Q01, Q11, the gate, ``inf`` for none, the association's match and
-    new-landmark gates and the sightings a new landmark needs) and of ``modes`` ((5,)
+    new-landmark gates, the sightings a new landmark needs and the scans a wide pairing
+    waits) and of ``modes`` ((5,)
     int64: the motion, measurement, correction, association and linearisation codes).
     Arguments as :class:`EKFSLAM`'s, already checked (``noise`` the parameters of the
     chosen motion model)."""
@@ -128,7 +133,7 @@ def kernel_config(
     params = np.array(
         [
             *noise, Q[0, 0], Q[0, 1], Q[1, 1], np.inf if gate is None else gate,
-            *association_gates, new_landmark_sightings,
+            *association_gates, new_landmark_sightings, wide_pairing_scans,
         ]
     )  # fmt: skip
     modes = np.array(
@@ -184,6 +189,15 @@ class EKFSLAM:
         new_landmark_sightings: 1 (a new landmark starts at its first sighting) or 2
             (it is held as tentative until a second, consistent sighting: what keeps
             clutter out of the map; see :mod:`slam_env.kernels.association`).
+        wide_pairing_scans: 1 (JCBB commits every pairing of its hypothesis at once)
+            or more (``"jcbb"`` only): a *wide* pairing, whose innovation covariance S
+            has ``det S`` above ``WIDE_RATIO²`` (100) times ``det Q`` (the pose is that
+            uncertain relative to the landmark: a loop closing), is withheld (the
+            observation discarded) unless its landmark has had such a pairing, with no
+            other observation of the scan compatible with it, in this many consecutive
+            scans; one landmark is followed at a time. What keeps a new landmark seen
+            where a mapped one is expected from being taken for it (see
+            :mod:`slam_env.kernels.association`, "Wide pairings").
         linearization: ``"standard"`` (the seeds) or ``"fej"`` (First-Estimates
             Jacobian EKF).
 
@@ -218,6 +232,7 @@ class EKFSLAM:
         match_gate: float | None = None,
         new_landmark_gate: float | None = None,
         new_landmark_sightings: int = 1,
+        wide_pairing_scans: int = 1,
     ) -> None:
         if motion_model not in MOTION_MODELS:
             raise ValueError(
@@ -233,6 +248,7 @@ class EKFSLAM:
         checks.choice("linearization", linearization, LINEARIZATIONS)
         gates = self._check_association_gates(match_gate, new_landmark_gate)
         sightings = checks.new_landmark_sightings(new_landmark_sightings)
+        wide_scans = checks.wide_pairing_scans(wide_pairing_scans, data_association)
         self._alphas = None if alphas is None else checks.noise_params(alphas, "alphas")
         self._control_noise = (
             None if control_noise is None else checks.noise_params(control_noise, "control_noise")
@@ -264,6 +280,7 @@ class EKFSLAM:
         self._linearization = linearization
         self._association_gates = gates
         self._sightings = sightings
+        self._wide_scans = wide_scans
         self._Q = Q
         self._N = int(max_landmarks)
         self._initial_pose = pose0
@@ -278,7 +295,7 @@ class EKFSLAM:
         self._slot_to_id_b = np.full((1, self._N), -1, dtype=np.int64)
         self._n_rejected_b = np.zeros(1, dtype=np.int64)
         self._firstb = np.zeros((1, dmax))
-        self._tentativeb = np.zeros((1, association.TENTATIVE_ROWS, association.TENTATIVE_WIDTH))
+        self._tentativeb = np.zeros((1, association.HELD_ROWS, association.TENTATIVE_WIDTH))
         self._setup()
         self._set_prior(pose0, cov0)
 
@@ -324,6 +341,7 @@ class EKFSLAM:
             self._linearization,
             self._association_gates,
             self._sightings,
+            self._wide_scans,
         )
         self._params = params[None]
         self._modes = modes[None]
@@ -389,7 +407,7 @@ class EKFSLAM:
     def _set_prior(self, pose: np.ndarray, cov: np.ndarray) -> None:
         self._x[:3] = pose
         self._firstb[0, :3] = pose
-        self._tentativeb[..., association.AGE] = -1.0  # no tentative sightings
+        self._tentativeb[..., association.AGE] = -1.0  # no tentative sightings, no hold
         self._P[:3, :3] = cov
         self._nb[0] = 0
         self._n_rejected_b[0] = 0
@@ -434,6 +452,10 @@ class EKFSLAM:
     @property
     def new_landmark_sightings(self) -> int:
         return self._sightings
+
+    @property
+    def wide_pairing_scans(self) -> int:
+        return self._wide_scans
 
     @property
     def association_gates(self) -> tuple[float, float]:
@@ -574,6 +596,7 @@ class EKFSLAM:
         "_linearization",
         "_association_gates",
         "_sightings",
+        "_wide_scans",
         "_Q",
         "_N",
         "_alphas",

@@ -18,6 +18,22 @@ for observation j and landmark i, the innovation ``ν = z_j − h(x, m_i)``, its
   :data:`MAX_NODES` hypotheses (the best so far is kept). S_H's Cholesky factor grows
   by two rows per pairing and is reused down the branch.
 
+Wide pairings (JCBB, with ``WIDE_SCANS`` > 1). A pairing is *wide* when its
+innovation covariance S spans more than :data:`WIDE_RATIO` times the area of the
+sensor's own noise Q (``det S > WIDE_RATIO² det Q``): the pose is then so uncertain
+relative to that landmark (a loop closing) that an unmapped landmark near where it is
+expected fits as well as the landmark itself, and one wrong pairing drags pose and map
+so far that the filter never recovers. So a wide pairing is withdrawn (the observation
+is then treated as paired with nothing) unless it is confirmed:
+
+* it is withdrawn outright where another observation of the scan is also within
+  ``MATCH_GATE`` of its landmark (two candidates for one landmark: ambiguous);
+* otherwise the world follows one landmark (the one it followed last scan if it is
+  among the scan's wide pairings, else the one of smallest D²), and commits its
+  pairing once that landmark has had a wide pairing in ``WIDE_SCANS`` consecutive
+  scans; the other wide pairings of the scan wait. The scans before are lost, the
+  price of not mistaking a new landmark for a mapped one it hides or stands beside.
+
 Then, in both: an observation paired with no landmark starts a new one if no landmark
 lies within the wider ``NEW_GATE`` of it (``min_i D²_ji > NEW_GATE``) and the state has
 room; otherwise it is discarded (ambiguous: near a landmark, but not compatible, or
@@ -58,6 +74,7 @@ from slam_env.kernels.ekf_codes import (
     Q11,
     SIGHTINGS,
     TENTATIVE_ID,
+    WIDE_SCANS,
 )
 from slam_env.kernels.models import (
     innovation,
@@ -74,6 +91,12 @@ CONFIRM_WINDOW = 5  # updates a tentative sighting waits for its confirmation
 # (negative: the row is free).
 PX, PY, C00, C01, C11, AGE, TENTATIVE_WIDTH = 0, 1, 2, 3, 4, 5, 6
 TENTATIVE_ROWS = 16  # tentative sightings a filter holds at once (the oldest gives way)
+# The table a filter keeps between updates: its tentative sightings, then one row for
+# the wide pairing it follows (the landmark in PX, the scans followed in AGE).
+HOLD_ROW = TENTATIVE_ROWS
+HELD_ROWS = TENTATIVE_ROWS + 1
+WIDE_RATIO = 10.0  # a pairing is wide when det S > WIDE_RATIO² det Q
+_WIDE = -2  # out[j] = _WIDE - i marks observation j's wide pairing with landmark i
 
 # Columns of a pairing's scratch row: H (2×5, row major), ν, the landmark's first row,
 # the observation's index.
@@ -335,6 +358,81 @@ def _jcbb(
 
 
 @kernel
+def _wide(
+    model: int,
+    x: np.ndarray,
+    P: np.ndarray,
+    z: np.ndarray,
+    i: int,
+    params: np.ndarray,
+    pair: np.ndarray,
+) -> bool:
+    """Whether pairing observation ``z`` (2,) with landmark ``i`` is wide: its
+    innovation covariance S spans more than :data:`WIDE_RATIO` times the area of the
+    sensor's own noise Q (det S > WIDE_RATIO² det Q)."""
+    if not _linearise(model, x, 3 + 2 * i, z[0], z[1], pair):
+        return False
+    s00, s01, _, s11 = _cross(P, pair, pair)
+    s00 += params[Q00]
+    s01 += params[Q01]
+    s11 += params[Q11]
+    det_q = params[Q00] * params[Q11] - params[Q01] * params[Q01]
+    return s00 * s11 - s01 * s01 > WIDE_RATIO * WIDE_RATIO * det_q
+
+
+@kernel
+def _hold_wide_pairings(
+    model: int,
+    x: np.ndarray,
+    P: np.ndarray,
+    z: np.ndarray,
+    k: int,
+    params: np.ndarray,
+    out: np.ndarray,
+    pair: np.ndarray,
+    d2: np.ndarray,
+    hold: np.ndarray,
+) -> None:
+    """Withdraw (``out[j] = -1``) the wide pairings of JCBB's hypothesis ``out`` that
+    are not yet confirmed (see the module's docstring, "Wide pairings"); ``hold`` is
+    the world's hold row (the landmark followed in :data:`PX`, the consecutive scans
+    it was followed in :data:`AGE`, negative for none), updated in place."""
+    tracked = int(hold[PX]) if hold[AGE] > 0.0 else -1
+    seen = False
+    best = -1  # the wide pairing of smallest D², followed if the tracked one is absent
+    for j in range(k):
+        i = out[j]
+        if i < 0 or not _wide(model, x, P, z[j], i, params, pair):
+            continue
+        out[j] = -1
+        rival = False
+        for t in range(k):
+            rival = rival or (t != j and d2[t, i] <= params[MATCH_GATE])
+        if rival:  # another observation of the scan fits that landmark too
+            continue
+        out[j] = _WIDE - i  # marked: decided below
+        seen = seen or i == tracked
+        if best < 0 or d2[j, i] < d2[best, _WIDE - out[best]]:
+            best = j
+    if best < 0:
+        hold[AGE] = -1.0
+        return
+    if seen:
+        hold[AGE] += 1.0
+    else:
+        tracked = _WIDE - out[best]
+        hold[PX] = tracked
+        hold[AGE] = 1.0
+    commit = hold[AGE] >= params[WIDE_SCANS]
+    if commit:
+        hold[AGE] = -1.0
+    for j in range(k):
+        if out[j] <= _WIDE:
+            i = _WIDE - out[j]
+            out[j] = i if commit and i == tracked else -1
+
+
+@kernel
 def _confirm(
     model: int,
     x: np.ndarray,
@@ -417,8 +515,9 @@ def associate(
     int64, -1 past the count and in the worlds not touched); ``d2_min[b, j]`` gets the
     smallest D² of observation j over the world's landmarks (``inf`` with none).
     ``joint_gates[m]``: the joint χ² threshold for m pairings (length ≥ D + 1).
-    ``tentative`` (B, T, 6): each world's tentative sightings, not written; the
-    worlds associated get them after this update in ``held`` (same shape), for the
+    ``tentative`` (B, :data:`HELD_ROWS`, 6): each world's tentative sightings and its
+    followed wide pairing (row :data:`HOLD_ROW`), not written; the worlds associated
+    get them after this update in ``held`` (same shape), for the
     caller to keep once the update has succeeded. The workspaces ``fwork``/``iwork``
     need :func:`association_workspace_sizes` ``(M, K)`` entries (M the landmark slots,
     K the largest count of the worlds associated); False, and nothing done, where they
@@ -509,6 +608,9 @@ def associate(
         for t in range(hb.shape[0]):
             for c in range(TENTATIVE_WIDTH):
                 hb[t, c] = tentative[b, t, c]
+        if modes[b, ASSOCIATION] == JCBB and pb[WIDE_SCANS] > 1.0:
+            _hold_wide_pairings(model, xb, Pb, z[b], k, pb, out, pair, d2, hb[HOLD_ROW])
+        for t in range(TENTATIVE_ROWS):
             if confirm and hb[t, AGE] >= 0.0:
                 hb[t, AGE] += 1.0
                 if hb[t, AGE] > CONFIRM_WINDOW:
@@ -520,7 +622,7 @@ def associate(
             out[j] = DISCARD_ID
             if not (d2_min[b, j] > pb[NEW_GATE] and slot < M):
                 continue
-            if confirm and not _confirm(model, xb, z[b, j, 0], z[b, j, 1], pb, hb):
+            if confirm and not _confirm(model, xb, z[b, j, 0], z[b, j, 1], pb, hb[:TENTATIVE_ROWS]):
                 out[j] = TENTATIVE_ID
                 continue
             out[j] = slot

@@ -16,7 +16,7 @@ State of B filters with room for M landmarks (``dmax = 3 + 2M``)
                                    First-Estimates Jacobian EKF linearises at)
 Slot i is rows ``3+2i, 4+2i``; new landmarks take the next slots in the order first seen.
 
-Configuration, per world: ``params`` (B, 11) float64 and ``modes`` (B, 5) int64, whose
+Configuration, per world: ``params`` (B, 12) float64 and ``modes`` (B, 5) int64, whose
 columns and codes :mod:`.ekf_codes` names, with the statuses and error codes.
 
 Linearisation: the standard EKF evaluates every Jacobian at the latest estimate. The

@@ -4,12 +4,13 @@
 per-observation statuses and the per-world error codes. Constants only, nothing compiled.
 
 Configuration, per world
-    params (B, 11) float64         :data:`NOISE` (α1..α4 for odometry, σp, σθ, βp, βθ for
+    params (B, 12) float64         :data:`NOISE` (α1..α4 for odometry, σp, σθ, βp, βθ for
                                    velocity), :data:`Q00`, :data:`Q01`, :data:`Q11` (the
                                    measurement covariance) and :data:`GATE` (the χ²
                                    threshold; ``inf`` accepts everything), then the
                                    association's :data:`MATCH_GATE`, :data:`NEW_GATE`
-                                   and :data:`SIGHTINGS` (see :mod:`.association`)
+                                   :data:`SIGHTINGS` and :data:`WIDE_SCANS` (see
+                                   :mod:`.association`)
     modes (B, 5) int64             :data:`MOTION` (``ODOMETRY``/``VELOCITY`` of
                                    :mod:`slam_env.kernels.models`), :data:`MEASUREMENT`
                                    (``RANGE_BEARING``/``CARTESIAN``), :data:`CORRECTION`
@@ -24,7 +25,17 @@ from __future__ import annotations
 import numpy as np
 
 # params columns
-NOISE, Q00, Q01, Q11, GATE, MATCH_GATE, NEW_GATE, SIGHTINGS = 0, 4, 5, 6, 7, 8, 9, 10
+NOISE, Q00, Q01, Q11, GATE, MATCH_GATE, NEW_GATE, SIGHTINGS, WIDE_SCANS = (
+    0,
+    4,
+    5,
+    6,
+    7,
+    8,
+    9,
+    10,
+    11,
+)
 # modes columns, and the codes of each mode
 MOTION, MEASUREMENT, CORRECTION, ASSOCIATION, LINEARIZATION = 0, 1, 2, 3, 4
 SEQUENTIAL, BATCH = 0, 1

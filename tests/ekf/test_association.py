@@ -132,6 +132,60 @@ def test_jcbb_pairs_jointly_compatible_observations_that_share_the_heading_error
     np.testing.assert_array_equal(jcbb.update(z).ids, [0, 1])
 
 
+def hidden_landmark_filter(wide_pairing_scans: int) -> EKFSLAM:
+    """Landmark A mapped at (4, 0) from a known pose, then a turn on the spot that
+    leaves the heading uncertain (σθ ≈ 9°, so a pairing with A is wide)."""
+    f = EKFSLAM(
+        alphas=(0.05, 0.0, 0.0, 0.0),
+        measurement_cov=Q["range_bearing"],
+        max_landmarks=4,
+        data_association="jcbb",
+        wide_pairing_scans=wide_pairing_scans,
+    )
+    f.update(MEASUREMENT_MODELS["range_bearing"].h(np.zeros(3), np.array([[4.0, 0.0]])))
+    f.predict([0.5, 0.0, -0.5])  # back to heading 0 (truly), unsure by how much
+    return f
+
+
+@pytest.mark.parametrize("wide_pairing_scans", [1, 3])
+def test_a_new_landmark_beside_a_hidden_mapped_one_is_not_taken_for_it(wide_pairing_scans):
+    """Seed 18 of the consistency benchmark, made small: a new landmark B stands 0.6 m
+    beside A, where A is expected within the heading's uncertainty, and A itself is
+    not seen (hidden) for two scans, then both are. With wide pairings committed at
+    once (``wide_pairing_scans=1``) JCBB gives B's first sighting to A, the heading is
+    corrected the wrong way, and A, seen again, starts a second landmark (a duplicate).
+    With ``wide_pairing_scans=3`` the wide pairing waits, the third scan shows two
+    observations compatible with A (ambiguous: both withdrawn), and nothing is given to
+    the wrong landmark or mapped twice."""
+    h = MEASUREMENT_MODELS["range_bearing"].h
+    truth = np.array([[4.0, 0.0], [4.0 * math.cos(0.15), 4.0 * math.sin(0.15)]])  # A, B
+    f = hidden_landmark_filter(wide_pairing_scans)
+    given_to = [
+        f.update(h(np.zeros(3), scan)).ids.tolist() for scan in (truth[1:], truth[1:], truth)
+    ]
+    b_given_to = [ids[-1] for ids in given_to]
+    if wide_pairing_scans == 1:
+        assert b_given_to == [0, 0, 0]  # B taken for A
+        assert given_to[2][0] == 1 and f.n_landmarks == 2  # A mapped twice
+    else:
+        assert b_given_to == [-1, -1, -1]  # held back, then ambiguous
+        assert given_to[2] == [-1, -1] and f.n_landmarks == 1
+        # Alone again, A's observation is followed and committed after three scans.
+        z = h(np.zeros(3), truth[:1])
+        assert [f.update(z).ids.tolist() for _ in range(3)] == [[-1], [-1], [0]]
+        np.testing.assert_allclose(f.pose, np.zeros(3), atol=0.02)
+
+
+def test_wide_pairing_scans_is_checked():
+    with pytest.raises(ValueError, match="needs data_association='jcbb'"):
+        make("nearest_neighbor", wide_pairing_scans=2)
+    with pytest.raises(ValueError, match=">= 1"):
+        make("jcbb", wide_pairing_scans=0)
+    with pytest.raises(TypeError, match="an int"):
+        make("jcbb", wide_pairing_scans=True)
+    assert make("jcbb", wide_pairing_scans=3).wide_pairing_scans == 3
+
+
 @pytest.mark.parametrize("association", ASSOCIATING)
 def test_a_new_landmark_starts_only_outside_the_wider_gate(association):
     """Observations at every distance from one mapped landmark: within the match gate
