@@ -25,17 +25,8 @@ from __future__ import annotations
 import numpy as np
 
 # params columns
-NOISE, Q00, Q01, Q11, GATE, MATCH_GATE, NEW_GATE, SIGHTINGS, WIDE_SCANS = (
-    0,
-    4,
-    5,
-    6,
-    7,
-    8,
-    9,
-    10,
-    11,
-)
+NOISE, Q00, Q01, Q11, GATE = 0, 4, 5, 6, 7
+MATCH_GATE, NEW_GATE, SIGHTINGS, WIDE_SCANS = 8, 9, 10, 11  # the association's
 # modes columns, and the codes of each mode
 MOTION, MEASUREMENT, CORRECTION, ASSOCIATION, LINEARIZATION = 0, 1, 2, 3, 4
 SEQUENTIAL, BATCH = 0, 1
