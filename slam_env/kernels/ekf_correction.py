@@ -14,7 +14,7 @@ import math
 
 import numpy as np
 
-from slam_env.kernels import kernel
+from slam_env.kernels import inline_kernel, kernel
 from slam_env.kernels.ekf_codes import (
     CORRECTED,
     COV_LIMIT,
@@ -454,29 +454,94 @@ def factor_check(U: np.ndarray, r: int, d: int, norms: np.ndarray) -> int:
     return OVERFLOW
 
 
+@inline_kernel
+def _subtract_from_rows(
+    p0: np.ndarray,
+    p1: np.ndarray,
+    p2: np.ndarray,
+    p3: np.ndarray,
+    U: np.ndarray,
+    i: int,
+    r: int,
+    lo: int,
+    n: int,
+) -> None:
+    """Rows i..i+3 of P on the n columns from ``lo`` (``p0``..``p3``: those segments)
+    less their part of Uᵀ U, two factor rows a pass: four rows share each load of U."""
+    for rho in range(0, r, 2):
+        a0 = U[rho, i]
+        a1 = U[rho + 1, i]
+        b0 = U[rho, i + 1]
+        b1 = U[rho + 1, i + 1]
+        c0 = U[rho, i + 2]
+        c1 = U[rho + 1, i + 2]
+        e0 = U[rho, i + 3]
+        e1 = U[rho + 1, i + 3]
+        # Views from lo, indexed from 0: with a loop from lo the compiler cannot tell
+        # the index is not negative, and would not vectorise.
+        u0 = U[rho, lo:]
+        u1 = U[rho + 1, lo:]
+        for j in range(n):
+            x0 = u0[j]
+            x1 = u1[j]
+            p0[j] = (p0[j] - a0 * x0) - a1 * x1
+            p1[j] = (p1[j] - b0 * x0) - b1 * x1
+            p2[j] = (p2[j] - c0 * x0) - c1 * x1
+            p3[j] = (p3[j] - e0 * x0) - e1 * x1
+
+
+@inline_kernel
+def _mirror_rows(P: np.ndarray, g: int, d: int) -> None:
+    """Rows g..g+3 of P, from column g + 4 on, copied into columns g..g+3 of the rows
+    below, four rows at a time (16 loads, then 16 stores)."""
+    r0 = P[g]
+    r1 = P[g + 1]
+    r2 = P[g + 2]
+    r3 = P[g + 3]
+    j = g + 4
+    while j + 4 <= d:
+        a0, a1, a2, a3 = r0[j], r0[j + 1], r0[j + 2], r0[j + 3]
+        b0, b1, b2, b3 = r1[j], r1[j + 1], r1[j + 2], r1[j + 3]
+        c0, c1, c2, c3 = r2[j], r2[j + 1], r2[j + 2], r2[j + 3]
+        e0, e1, e2, e3 = r3[j], r3[j + 1], r3[j + 2], r3[j + 3]
+        s = P[j]
+        s[g], s[g + 1], s[g + 2], s[g + 3] = a0, b0, c0, e0
+        s = P[j + 1]
+        s[g], s[g + 1], s[g + 2], s[g + 3] = a1, b1, c1, e1
+        s = P[j + 2]
+        s[g], s[g + 1], s[g + 2], s[g + 3] = a2, b2, c2, e2
+        s = P[j + 3]
+        s[g], s[g + 1], s[g + 2], s[g + 3] = a3, b3, c3, e3
+        j += 4
+    while j < d:
+        s = P[j]
+        s[g], s[g + 1], s[g + 2], s[g + 3] = r0[j], r1[j], r2[j], r3[j]
+        j += 1
+
+
 @kernel
 def apply_factors(P: np.ndarray, U: np.ndarray, r: int, d: int) -> None:
-    """P ← P − Uᵀ U on the live block, entry by entry as ((P − u₀u₀) − u₁u₁) − …, so
-    that P[i, j] and P[j, i] see the same operations and P stays exactly symmetric.
-    One pass over P however many corrections the update made (r is even)."""
-    for i in range(d):
-        rho = 0
-        while rho + 4 <= r:
-            c0 = U[rho, i]
-            c1 = U[rho + 1, i]
-            c2 = U[rho + 2, i]
-            c3 = U[rho + 3, i]
-            for j in range(d):
-                v = P[i, j] - c0 * U[rho, j]
-                v -= c1 * U[rho + 1, j]
-                v -= c2 * U[rho + 2, j]
-                P[i, j] = v - c3 * U[rho + 3, j]
-            rho += 4
-        if rho < r:
-            c0 = U[rho, i]
-            c1 = U[rho + 1, i]
-            for j in range(d):
-                P[i, j] = (P[i, j] - c0 * U[rho, j]) - c1 * U[rho + 1, j]
+    """P ← P − Uᵀ U on the live block, entry by entry as ((P − u₀u₀) − u₁u₁) − …
+    One pass over P however many corrections the update made (r is even).
+
+    Only the upper triangle is computed, four rows at a time, each block of four from
+    its diagonal on (the lower entries of its 4×4 diagonal block too), then copied
+    into the rows below; the last d mod 4 rows compute their block on the diagonal.
+    Half the arithmetic of the whole product, and P stays exactly symmetric: an entry
+    and its mirror are one number, the one the whole product would give either (P was
+    symmetric, and u_i u_j = u_j u_i)."""
+    d4 = d - d % 4
+    for g in range(0, d4, 4):
+        n = d - g
+        _subtract_from_rows(P[g, g:], P[g + 1, g:], P[g + 2, g:], P[g + 3, g:], U, g, r, g, n)
+        _mirror_rows(P, g, d)
+    for i in range(d4, d):
+        row = P[i]
+        for j in range(d4, d):
+            v = row[j]
+            for rho in range(r):
+                v -= U[rho, i] * U[rho, j]
+            row[j] = v
 
 
 @kernel
