@@ -167,6 +167,15 @@ def _cross(P: np.ndarray, a: np.ndarray, b: np.ndarray) -> tuple[float, float, f
 
 
 @kernel
+def _innovation_covariance(
+    P: np.ndarray, pair: np.ndarray, params: np.ndarray
+) -> tuple[float, float, float]:
+    """S = H P Hᵀ + Q of one linearised observation, as (S00, S01, S11)."""
+    s00, s01, _, s11 = _cross(P, pair, pair)
+    return s00 + params[Q00], s01 + params[Q01], s11 + params[Q11]
+
+
+@kernel
 def _extend(
     P: np.ndarray,
     params: np.ndarray,
@@ -195,10 +204,7 @@ def _extend(
             for t in range(i):
                 acc -= L[i, t] * X[t, col]
             X[i, col] = acc / L[i, i]
-    s00, s01, _, s11 = _cross(P, new, new)
-    s00 += params[Q00]
-    s01 += params[Q01]
-    s11 += params[Q11]
+    s00, s01, s11 = _innovation_covariance(P, new, params)
     v0 = new[_NU]
     v1 = new[_NU + 1]
     for i in range(r):
@@ -372,10 +378,7 @@ def _wide(
     sensor's own noise Q (det S > WIDE_RATIO² det Q)."""
     if not _linearise(model, x, 3 + 2 * i, z[0], z[1], pair):
         return False
-    s00, s01, _, s11 = _cross(P, pair, pair)
-    s00 += params[Q00]
-    s01 += params[Q01]
-    s11 += params[Q11]
+    s00, s01, s11 = _innovation_covariance(P, pair, params)
     det_q = params[Q00] * params[Q11] - params[Q01] * params[Q01]
     return s00 * s11 - s01 * s01 > WIDE_RATIO * WIDE_RATIO * det_q
 
@@ -557,10 +560,7 @@ def associate(
                 value = math.inf
                 if _linearise(model, xb, 3 + 2 * i, z[b, j, 0], z[b, j, 1], pair):
                     # D² = |l⁻¹ν| with S = H P Hᵀ + Q = l lᵀ (2×2)
-                    s00, s01, _, s11 = _cross(Pb, pair, pair)
-                    s00 += pb[Q00]
-                    s01 += pb[Q01]
-                    s11 += pb[Q11]
+                    s00, s01, s11 = _innovation_covariance(Pb, pair, pb)
                     if s00 > 0.0:
                         l00 = math.sqrt(s00)
                         l10 = s01 / l00
