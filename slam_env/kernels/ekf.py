@@ -22,8 +22,9 @@ columns and codes :mod:`.ekf_codes` names, with the statuses and error codes.
 Linearisation: the standard EKF evaluates every Jacobian at the latest estimate. The
 First-Estimates Jacobian EKF (Huang, Mourikis & Roumeliotis) evaluates the prediction's
 G at the pose the previous prediction produced (``a = −(y' − ŷ_first)``,
-``b = x' − x̂_first``) and each measurement's H at the pose this step's prediction
-produced and at the landmark's first estimate, so that the linearised system keeps the
+``b = x' − x̂_first``), each measurement's H at the pose this step's prediction
+produced and at the landmark's first estimate, and a new landmark's L (= −H_m⁻¹ H_x)
+at that pose and at the new landmark's first estimate, so that the linearised system keeps the
 true one's unobservable directions (global translation and rotation) and the filter
 does not turn over-confident. Means, innovations and noise Jacobians are the same in
 both.
@@ -389,8 +390,9 @@ def update(
         new = 0
         if err == OK:
             new, err = new_landmarks(
-                xw, Pb, d, slot_of, zb, ib, k, pb, model, U, r, PR, C, obs, small[SMALL_S]
-            )
+                xw, Pb, d, slot_of, zb, ib, k, pb, model, U, r, PR, C, obs, small[SMALL_S],
+                fb, fej,
+            )  # fmt: skip
         if err == OK and not all_finite(xw, d + 2 * new):
             err = NOT_FINITE
         if err != OK:

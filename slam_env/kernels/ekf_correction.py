@@ -363,13 +363,23 @@ def new_landmarks(
     C: np.ndarray,
     LW: np.ndarray,
     NB: np.ndarray,
+    first: np.ndarray,
+    fej: bool,
 ) -> tuple[int, int]:
     """The new landmarks (seed 000 §2.2), in the given order, from the corrected
     belief, without writing P: m = h⁻¹(z, pose) into ``xw[d:]``; with L = ∂h⁻¹/∂pose,
     W = ∂h⁻¹/∂z, their rows P_m,y = L P_x,y into C (2 rows each; P_x,y the corrected
     pose rows, P − Uᵀ U, into PR) and the block between them, L P_xx Lᵀ + W Q Wᵀ,
     into NB (not yet symmetrised). ``LW`` gets (l02, l12, w00, w01, w10, w11) of each.
-    Returns (new landmarks, error code)."""
+    Returns (new landmarks, error code).
+
+    With ``fej``, L is linearised at the first estimates, as FEJ's H is: the pose this
+    step's prediction produced (``first[:3]``) and the new landmark's own first
+    estimate m, so L = −H_m⁻¹ H_x there: [[1, 0, −(m_y − ŷ)], [0, 1, m_x − x̂]] (both
+    measurement models). At the corrected pose instead, L would map the global
+    rotation's direction at the predicted pose, (−ŷ, x̂, 1), to J(m − p̂_corrected) + J p̂
+    rather than to the landmark's own J m, and a scan that both corrects and starts
+    a landmark would give the filter information about the unobservable rotation."""
     new = 0
     for j in range(k):
         if ids[j] >= 0 and slot_of[ids[j]] < 0:
@@ -395,13 +405,18 @@ def new_landmarks(
         lw = inverse_jacobian(model, pth, z[j, 0], z[j, 1])
         for t in range(6):
             LW[a, t] = lw[t]
+        if fej:  # L at the first estimates (see above); W as the standard EKF's
+            LW[a, 0] = first[1] - my
+            LW[a, 1] = mx - first[0]
         xw[d + 2 * a] = mx
         xw[d + 2 * a + 1] = my
         Ca = C[2 * a]
         Cb = C[2 * a + 1]
+        l02 = LW[a, 0]
+        l12 = LW[a, 1]
         for c in range(d):
-            Ca[c] = PR[0, c] + lw[0] * PR[2, c]
-            Cb[c] = PR[1, c] + lw[1] * PR[2, c]
+            Ca[c] = PR[0, c] + l02 * PR[2, c]
+            Cb[c] = PR[1, c] + l12 * PR[2, c]
         if not (all_finite(Ca, d) and all_finite(Cb, d)):
             return new, NOT_FINITE
         a += 1

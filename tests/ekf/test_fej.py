@@ -1,7 +1,8 @@
 """The First-Estimates Jacobian EKF (``linearization="fej"``) against a dense filter
 whose Jacobians are finite differences at the points FEJ claims (the pose the last
-prediction produced, each landmark's first estimate), and ``"standard"`` against the
-dense textbook filter of the seeds."""
+prediction produced, each landmark's first estimate), its defining property (the
+linearised system never learns the global rotation, which the true one cannot), and
+``"standard"`` against the dense textbook filter of the seeds."""
 
 from __future__ import annotations
 
@@ -106,7 +107,15 @@ class DenseFEJ:
                 continue
             pose = self.mu[:3].copy()
             m = self.hm.inverse(pose, zj[None])[0]
-            L = numeric_jacobian(lambda p, zj=zj: self.hm.inverse(p, zj[None])[0], pose)
+            # L at the first estimates, as H: the start of a landmark is a correction
+            # from no prior, h(pose, m) = z solved for m, so L = −H_m⁻¹ H_x with H at the
+            # predicted pose and the landmark's first estimate m. W (noise) at the mean.
+            H5 = numeric_jacobian(
+                lambda pm: self.hm.h(pm[:3], pm[3:][None])[0],
+                np.concatenate([self.first[:3], m]),
+                angle_rows=self.bearing,
+            )
+            L = -np.linalg.solve(H5[:, 3:], H5[:, :3])
             W = numeric_jacobian(
                 lambda zz, pose=pose: self.hm.inverse(pose, zz[None])[0], zj.copy()
             )
@@ -196,3 +205,69 @@ def test_the_first_estimates_jacobian_is_fs_jacobian_where_the_estimates_agree()
         filt.predict(u)
     np.testing.assert_allclose(f["fej"].pose_cov[:, 2], G[:, 2], atol=1e-8)
     np.testing.assert_array_equal(f["fej"].pose_cov, f["standard"].pose_cov)
+
+
+def _rotation_direction(pose: np.ndarray, landmarks: list[np.ndarray]) -> np.ndarray:
+    """The state's change under a small global rotation about the origin:
+    (−y, x, 1, −m1y, m1x, …) at the given points."""
+    parts = [np.array([-pose[1], pose[0], 1.0])]
+    parts += [np.array([-m[1], m[0]]) for m in landmarks]
+    return np.concatenate(parts)
+
+
+@pytest.mark.parametrize("motion", ["odometry", "velocity"])
+@pytest.mark.parametrize("measurement", ["range_bearing", "cartesian"])
+@pytest.mark.parametrize("correction", ["sequential", "batch"])
+def test_fej_never_learns_the_global_rotation(motion, measurement, correction):
+    """FEJ's reason to exist (Huang, Mourikis & Roumeliotis): its linearised system
+    keeps the true one's unobservable rotation. So a prior variance c along the global
+    rotation's direction N (at the first estimates: the pose the last prediction
+    produced, each landmark as it was started) is carried, never corrected: two FEJ
+    filters on the same data, one started with P0 and one with P0 + c N₀N₀ᵀ, differ by
+    exactly c N Nᵀ at every step, through predictions (G N = N'), corrections (H N = 0)
+    and new landmarks (L N_pose = N_landmark), including scans that correct known
+    landmarks and start new ones together. The standard EKF does not keep it."""
+    rng = np.random.default_rng(7)
+    truth = rng.uniform(-5, 5, size=(12, 2))
+    pose0 = np.array([0.7, -0.4, 0.3])
+    cov0 = np.diag([0.01, 0.02, 0.003])
+    c = 0.01
+    n0 = _rotation_direction(pose0, [])
+    mm, hm = MOTION_MODELS[motion], MEASUREMENT_MODELS[measurement]
+
+    def make(lin: str, cov: np.ndarray) -> EKFSLAM:
+        return EKFSLAM(
+            motion_model=motion, measurement_model=measurement, alphas=ALPHAS,
+            control_noise=CONTROL_NOISE, measurement_cov=Q[measurement], max_landmarks=12,
+            initial_pose=pose0, initial_pose_cov=cov, linearization=lin,
+            correction=correction,
+        )  # fmt: skip
+
+    worst = {}
+    for lin in ("fej", "standard"):
+        a, b = make(lin, cov0), make(lin, cov0 + c * np.outer(n0, n0))
+        rng = np.random.default_rng(11)
+        pose, first_marks, mixed, worst[lin] = pose0.copy(), {}, 0, 0.0
+        for _ in range(40):
+            u = (
+                np.array([rng.uniform(-0.3, 0.3), rng.uniform(0.1, 0.6), rng.uniform(-0.3, 0.3)])
+                if motion == "odometry"
+                else np.array([rng.uniform(0.1, 0.6), rng.uniform(-0.4, 0.4)])
+            )
+            pose = mm.motion(pose, u)
+            a.predict(u)
+            b.predict(u)
+            predicted = a.pose
+            ids = rng.permutation(12)[: rng.integers(0, 6)]
+            z = hm.h(pose, truth[ids]) + rng.normal(size=(ids.size, 2)) * 0.03
+            known = np.isin(ids, list(first_marks))
+            mixed += bool(known.any() and not known.all())
+            a.update(z, ids)
+            b.update(z, ids)
+            for lid in ids.tolist():
+                first_marks.setdefault(lid, a.landmark(lid)[0])
+            n = _rotation_direction(predicted, [first_marks[i] for i in a.state_to_id.tolist()])
+            worst[lin] = max(worst[lin], float(np.abs(b.cov - a.cov - c * np.outer(n, n)).max()))
+        assert mixed >= 3  # scans that both correct and start landmarks
+    assert worst["fej"] < 1e-9
+    assert worst["standard"] > 1e-4
