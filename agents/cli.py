@@ -4,7 +4,7 @@
                       [--vectorization native|subproc|dummy] [--engine sb3|rllib]
                       [--address ADDR] [--num-env-runners R] [--num-envs-per-runner K]
                       [--learner-device cpu|gpu] [--num-learners L]   (the last five: rllib)
-    slam-env evaluate --agents random,frontier,infogain,ppo:PATH,rllib:PATH [--episodes 20]
+    slam-env evaluate --agents random,frontier,infogain,goals,ppo:PATH [--episodes 20]
                       [--seed 0] [--out DIR] [--max-steps N] [--env-option KEY=VALUE ...]
     slam-env evaluate --agents ... --suite default|smoke [--out DIR]
     slam-env demo     [--agent SPEC] [--seed S] [--out DIR] [--no-gif] [--max-steps N]
@@ -152,7 +152,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--agents",
         required=True,
-        help="comma-separated agent specs: random, frontier, infogain, ppo, ppo:PATH, rllib:PATH",
+        help="comma-separated agent specs: random, frontier, infogain, ppo, ppo:PATH, "
+        "rllib:PATH, goals, goals:PATH",
     )
     p.add_argument("--episodes", type=_positive_int, default=20, help="episodes per agent")
     p.add_argument("--seed", type=_non_negative_int, default=0, help="episode i uses seed+i")
@@ -260,9 +261,14 @@ def _run_train(args: argparse.Namespace) -> int:
     summary_file = path.parent / "training_summary.json"
     if summary_file.is_file():
         s = json.loads(summary_file.read_text())
+        done, rate, unit = (
+            (s["choices"], s["choices_per_s"], "choices")  # decisions: goals
+            if "choices" in s
+            else (s["timesteps"], s["env_steps_per_s"], "env steps")
+        )
         console.print(
-            f"{s['timesteps']} env steps in {s['wall_time_s']:.1f} s "
-            f"({s['env_steps_per_s']} steps/s with {s['n_envs']} envs, {s['vectorization']})"
+            f"{done} {unit} in {s['wall_time_s']:.1f} s "
+            f"({rate} {unit}/s with {s['n_envs']} envs, {s['vectorization']})"
         )
         if s["env_step_share"] is not None:
             console.print(

@@ -111,6 +111,7 @@ class FrontierAgent(HeuristicAgent):
         self._tried: set[int] = set()
         self._cooldown = 0
         self._trigger = self.params.loop_close_std
+        self._gain_weight = self.params.gain_weight  # m of path per m² of unswept area
 
     @property
     def mode(self) -> str:
@@ -133,15 +134,7 @@ class FrontierAgent(HeuristicAgent):
         f = self._base.filter
         pose = f.pose
         sigma = self._sigma()
-        if self._update_maps(pose) and self._follower is not None:
-            path = self._follower.points[1:]
-            if not self._memory.is_free_at(path).all():
-                self._follower = None  # a new post blocks the path
-        self._since_plan += 1
-        self._mode_steps += 1
-        self._cooldown = max(self._cooldown - 1, 0)
-
-        backing_off = self._backing_off(pose)
+        backing_off = self._observe(pose)
         if backing_off is not None:
             return backing_off
 
@@ -164,6 +157,18 @@ class FrontierAgent(HeuristicAgent):
         if self._look_at is None and self._needs_plan(pose):
             self._plan(pose)
         return self._drive(pose)
+
+    def _observe(self, pose: np.ndarray) -> np.ndarray | None:
+        """Sweep the maps from ``pose`` and count the step; the recovery action while
+        backing off from something the robot ran into, else None."""
+        if self._update_maps(pose) and self._follower is not None:
+            path = self._follower.points[1:]
+            if not self._memory.is_free_at(path).all():
+                self._follower = None  # a new post blocks the path
+        self._since_plan += 1
+        self._mode_steps += 1
+        self._cooldown = max(self._cooldown - 1, 0)
+        return self._backing_off(pose)
 
     def _sigma(self) -> float:
         cov = self._base.filter.pose_cov
@@ -216,13 +221,18 @@ class FrontierAgent(HeuristicAgent):
         return np.array([cg.xs[jj + cols.start].mean(), cg.ys[ii + rows.start].mean()])
 
     # ------------------------------------------------------------------ planning
-    def _plan(self, pose: np.ndarray) -> None:
+    def _paths_from(self, pose: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Path lengths (m) over the planning grid from ``pose``, and the parents."""
+        mem = self._memory
+        start = mem.start_cell(pose)
+        return dijkstra(mem.free, [start], resolution=mem.grid.resolution, cell_cost=mem.cell_cost)
+
+    def _plan(self, pose: np.ndarray, paths: tuple[np.ndarray, np.ndarray] | None = None) -> None:
+        """Pick the goal of the current mode and the path to it (``paths``: those of
+        :meth:`_paths_from` at ``pose``, where already computed)."""
         mem = self._memory
         self._since_plan = 0
-        start = mem.start_cell(pose)
-        dist, parent = dijkstra(
-            mem.free, [start], resolution=mem.grid.resolution, cell_cost=mem.cell_cost
-        )
+        dist, parent = self._paths_from(pose) if paths is None else paths
         goal = None
         for _ in range(3):  # a mode may hand over to the next one
             if self._mode == EXPLORE:
@@ -251,10 +261,11 @@ class FrontierAgent(HeuristicAgent):
         points[0] = pose[:2]
         self._follower = PathFollower(points, self.params.lookahead, self._control)
 
-    def _frontier_goal(self, pose: np.ndarray, dist: np.ndarray) -> tuple[int, int] | None:
-        """The planning cell minimising path length − gain_weight·unswept area around it
-        + turn_weight·|bearing to it|, with hysteresis for the current goal."""
-        p = self.params
+    def _frontier_terms(
+        self, pose: np.ndarray, dist: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+        """Per planning cell: its unswept area around it (m²), |bearing| to it (rad),
+        and whether it is a reachable frontier; None when no cell is one."""
         mem = self._memory
         grid = mem.grid
         unswept = self._unswept()
@@ -262,15 +273,34 @@ class FrontierAgent(HeuristicAgent):
             return None
         res = mem.coverage.grid.resolution
         gain = mem.on_planning_grid(box_sum(unswept, self._gain_cells) * res * res)  # m²
-        ok = np.isfinite(dist) & (gain >= p.min_gain)
+        ok = np.isfinite(dist) & (gain >= self.params.min_gain)
         if not ok.any():
-            self._memory.coverage.abandoned |= unswept  # what is left cannot be reached
             return None
         dx = grid.xs[None, :] - pose[0]
         dy = grid.ys[:, None] - pose[1]
         bearing = np.abs(np.arctan2(dy, dx) - pose[2])
         bearing = np.minimum(bearing % (2.0 * math.pi), -bearing % (2.0 * math.pi))
-        score = np.where(ok, dist - p.gain_weight * gain + p.turn_weight * bearing, np.inf)
+        return gain, bearing, ok
+
+    def _frontier_score(
+        self, dist: np.ndarray, terms: tuple[np.ndarray, np.ndarray, np.ndarray], gain_weight: float
+    ) -> np.ndarray:
+        """Path length − gain_weight·unswept area + turn_weight·|bearing|; inf off the
+        frontier."""
+        gain, bearing, ok = terms
+        return np.where(ok, dist - gain_weight * gain + self.params.turn_weight * bearing, np.inf)
+
+    def _frontier_goal(self, pose: np.ndarray, dist: np.ndarray) -> tuple[int, int] | None:
+        """The planning cell of least :meth:`_frontier_score` (at the current gain
+        weight), with hysteresis for the current goal."""
+        p = self.params
+        grid = self._memory.grid
+        terms = self._frontier_terms(pose, dist)
+        if terms is None:
+            self._memory.coverage.abandoned |= self._unswept()  # nothing left to reach
+            return None
+        _, _, ok = terms
+        score = self._frontier_score(dist, terms, self._gain_weight)
         k = int(np.argmin(score))
         best = divmod(k, grid.nx)
         if self._follower is not None:
@@ -280,8 +310,20 @@ class FrontierAgent(HeuristicAgent):
         return best
 
     def _landmark_goal(self, dist: np.ndarray) -> tuple[int, int] | None:
-        """A viewpoint of the landmark to (re)observe: localise picks a landmark known
-        much better than the pose, cheap to reach; refine the least-known one."""
+        """A viewpoint of the landmark to (re)observe in the current mode (see
+        :meth:`_landmark_candidate`); it becomes the target landmark."""
+        candidate = self._landmark_candidate(dist, self._mode)
+        if candidate is None:
+            return None
+        self._target_landmark, cell, _, _ = candidate
+        return cell
+
+    def _landmark_candidate(
+        self, dist: np.ndarray, mode: str
+    ) -> tuple[int, tuple[int, int], float, float] | None:
+        """(landmark ID, viewpoint cell, path length to it (m), the landmark's σ (m)),
+        or None: LOCALISE picks a landmark known much better than the pose, cheap to
+        reach; REFINE the least-known one not revisited yet."""
         p = self.params
         mem = self._memory
         f = self._base.filter
@@ -292,7 +334,7 @@ class FrontierAgent(HeuristicAgent):
         ids = f.state_to_id
         lo, hi = p.view_distance
         grid = mem.grid
-        if self._mode == LOCALISE:
+        if mode == LOCALISE:
             cov = f.pose_cov
             limit = p.useful_ratio * math.sqrt(max(cov[0, 0] + cov[1, 1], 0.0))
         else:
@@ -314,19 +356,19 @@ class FrontierAgent(HeuristicAgent):
             cand = np.where(ring, dist[i0:i1, j0:j1], np.inf)
             m = int(np.argmin(cand))
             reach = float(cand.flat[m])
-            if not math.isfinite(reach) or (self._mode == LOCALISE and reach > p.max_detour):
+            if not math.isfinite(reach) or (mode == LOCALISE and reach > p.max_detour):
                 continue
-            if self._mode == LOCALISE:
+            if mode == LOCALISE:
                 score = reach + p.uncertainty_weight * float(sig[k])
             else:
                 score = reach - p.uncertainty_weight * float(sig[k])
             if score < best_score:
                 a, b = divmod(m, j1 - j0)
                 best, best_score, best_cell = lid, score, (a + i0, b + j0)
+                best_reach, best_sigma = reach, float(sig[k])
         if best_cell is None:
             return None
-        self._target_landmark = best
-        return best_cell
+        return best, best_cell, best_reach, best_sigma
 
     # ------------------------------------------------------------------ control
     def _drive(self, pose: np.ndarray) -> np.ndarray:

@@ -137,9 +137,15 @@ class HeuristicAgent(ScriptedAgent):
         base = self._base
         if is_truthy(episode_start) or self._memory is None or self._watch.is_new(base):
             self.reset()
-        action = np.clip(self._act(), -1.0, 1.0).astype(np.float32)
-        self._last_command = (float(action[0]), float(action[1]))
+        action = self._sent(self._act())
         self._watch.mark(base)
+        return action
+
+    def _sent(self, raw: np.ndarray) -> np.ndarray:
+        """``raw`` clipped to [−1, 1] as float32: the action sent, remembered so that
+        being stuck can be noticed."""
+        action = np.clip(raw, -1.0, 1.0).astype(np.float32)
+        self._last_command = (float(action[0]), float(action[1]))
         return action
 
     def reset(self) -> None:

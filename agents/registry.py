@@ -10,6 +10,8 @@ An agent spec is a short string, as the command line takes it:
 | ``ppo``      | the shipped PPO policy, ``agents/policies/ppo_active_slam.zip``      |
 | ``ppo:PATH`` | a PPO policy saved by ``slam-env train`` (a stable-baselines3 ``.zip``) |
 | ``rllib:PATH`` | an RLlib checkpoint saved by ``slam-env train --engine rllib`` (a folder) |
+| ``goals``    | the shipped goal-choosing policy, ``agents/policies/goal_explore.zip`` |
+| ``goals:PATH`` | a goal-choosing policy (:mod:`agents.goal_choice`), ``decisions: goals`` |
 
 Heuristic agents are imported only when asked for, so that one agent's import cost
 (or absence) never affects another.
@@ -31,6 +33,8 @@ ENV_ID = "slam_env:slam_env/ActiveSLAM-v0"
 
 #: The PPO policy shipped with the package (written by the lead after training).
 SHIPPED_POLICY = Path(__file__).resolve().parent / "policies" / "ppo_active_slam.zip"
+#: The goal-choosing policy shipped with the package (agents/configs/goal_explore.yaml).
+SHIPPED_GOAL_POLICY = SHIPPED_POLICY.with_name("goal_explore.zip")
 
 # name -> (module, class): imported lazily by make_agent.
 _HEURISTICS: dict[str, tuple[str, str]] = {
@@ -38,7 +42,7 @@ _HEURISTICS: dict[str, tuple[str, str]] = {
     "infogain": ("agents.infogain", "InfoGainAgent"),
 }
 
-AGENT_NAMES = ("random", *_HEURISTICS, "ppo", "ppo:PATH", "rllib:PATH")
+AGENT_NAMES = ("random", *_HEURISTICS, "ppo", "ppo:PATH", "rllib:PATH", "goals", "goals:PATH")
 
 
 def make_env(
@@ -74,6 +78,8 @@ def agent_label(spec: str) -> str:
         return f"ppo:{Path(spec[4:]).stem}"
     if spec.startswith("rllib:"):
         return f"rllib:{Path(spec[6:]).name}"
+    if spec.startswith("goals:"):
+        return f"goals:{Path(spec[6:]).stem}"
     return spec
 
 
@@ -135,4 +141,13 @@ def make_agent(spec: str, env: gym.Env, seed: int | None = None) -> Agent:
         if not path:
             raise ValueError("agent spec 'rllib:' needs a path, e.g. 'rllib:runs/rllib/model'")
         return load_rllib_agent(path, env)
+    if spec == "goals" or spec.startswith("goals:"):
+        from agents.goal_training import load_goal_agent
+
+        if spec == "goals":
+            return load_goal_agent(SHIPPED_GOAL_POLICY, env, seed=seed)
+        path = spec[6:].strip()
+        if not path:
+            raise ValueError("agent spec 'goals:' needs a path, e.g. 'goals:runs/goals/model.zip'")
+        return load_goal_agent(path, env, seed=seed)
     raise ValueError(f"unknown agent {spec!r}; choose from {', '.join(AGENT_NAMES)}")

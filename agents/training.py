@@ -47,6 +47,9 @@ START_METHODS = (None, "fork", "forkserver", "spawn")
 #: in one call (:mod:`agents.sb3_vector`), ``subproc`` one single env per worker process
 #: (SB3's ``SubprocVecEnv``), ``dummy`` single envs one after the other in-process.
 VECTORIZATIONS = ("native", "subproc", "dummy")
+#: What the policy decides: ``actions`` the robot's action every env step (on the
+#: env's observation), ``goals`` the planner's next goal (:mod:`agents.goal_choice`).
+DECISIONS = ("actions", "goals")
 ACTIVATIONS = ("tanh", "relu")
 
 
@@ -80,7 +83,11 @@ class PPOParams:
 class TrainConfig:
     """Everything ``train`` needs. Frequencies count env steps (all envs together)."""
 
-    total_timesteps: int = 1_000_000
+    decisions: str = "actions"  # one of DECISIONS
+    total_timesteps: int = 1_000_000  # policy steps: env steps, or choices of goals
+    # decisions: goals: reward per landmark the belief gains, beside the env's reward
+    # (agents.goal_env.GoalChoiceEnv); 0 for decisions: actions.
+    discovery_bonus: float = 0.0
     n_envs: int = 2  # sub-envs stepped together (worker processes for "subproc")
     vectorization: str = "native"  # one of VECTORIZATIONS
     seed: int = 0
@@ -169,6 +176,20 @@ def validate_config(cfg: TrainConfig) -> TrainConfig:
     for name in ("seed", "eval_seed", "checkpoint_freq", "eval_freq", "verbose"):
         v = getattr(cfg, name)
         _check(_is_int(v) and v >= 0, name, v, "an int >= 0")
+    _check(cfg.decisions in DECISIONS, "decisions", cfg.decisions, f"one of {DECISIONS}")
+    bonus = cfg.discovery_bonus
+    _check(
+        _is_number(bonus) and 0.0 <= bonus < math.inf,
+        "discovery_bonus",
+        bonus,
+        "a finite number >= 0",
+    )
+    _check(
+        bonus == 0.0 or cfg.decisions == "goals",
+        "discovery_bonus",
+        bonus,
+        "0 unless decisions is goals",
+    )
     _check(isinstance(cfg.env_options, dict), "env_options", cfg.env_options, "a mapping")
     _check(
         cfg.max_episode_steps is None
@@ -207,7 +228,12 @@ def validate_config(cfg: TrainConfig) -> TrainConfig:
             WorldDistribution.from_mapping(cfg.worlds)
         except ValueError as exc:
             raise ConfigError(str(exc)) from None
-        _check(cfg.vectorization == "native", "vectorization", cfg.vectorization, "native")
+        if cfg.decisions == "actions":
+            _check(cfg.vectorization == "native", "vectorization", cfg.vectorization, "native")
+    if cfg.decisions == "goals":
+        # One choice spans a varying number of env steps, so its envs step one by one.
+        expected = "subproc or dummy (a choice spans a varying number of env steps)"
+        _check(cfg.vectorization != "native", "vectorization", cfg.vectorization, expected)
     _check(
         cfg.world_groups is None
         or (
@@ -363,20 +389,26 @@ def _check_env(cfg: TrainConfig) -> str:
     return "MultiInputPolicy" if local else "MlpPolicy"
 
 
-def _make_callbacks(cfg: TrainConfig, out: Path, eval_env: Any) -> list[Any]:
+def checkpoint_callbacks(cfg: TrainConfig, out: Path) -> list[Any]:
+    """SB3's checkpoint saving every ``cfg.checkpoint_freq`` steps into
+    ``out/checkpoints`` (none for 0)."""
     from stable_baselines3.common.callbacks import CheckpointCallback
 
+    if cfg.checkpoint_freq <= 0:
+        return []
+    return [
+        CheckpointCallback(
+            save_freq=max(cfg.checkpoint_freq // cfg.n_envs, 1),
+            save_path=str(out / "checkpoints"),
+            name_prefix=cfg.model_name,
+        )
+    ]
+
+
+def _make_callbacks(cfg: TrainConfig, out: Path, eval_env: Any) -> list[Any]:
     from agents.slam_callbacks import SlamEvalCallback, SlamMetricsCallback
 
-    callbacks: list[Any] = [SlamMetricsCallback()]
-    if cfg.checkpoint_freq > 0:
-        callbacks.append(
-            CheckpointCallback(
-                save_freq=max(cfg.checkpoint_freq // cfg.n_envs, 1),
-                save_path=str(out / "checkpoints"),
-                name_prefix=cfg.model_name,
-            )
-        )
+    callbacks: list[Any] = [SlamMetricsCallback(), *checkpoint_callbacks(cfg, out)]
     if cfg.eval_freq > 0:
         callbacks.append(
             SlamEvalCallback(
@@ -402,6 +434,59 @@ def _write_yaml(cfg: TrainConfig, path: Path) -> None:
 
 
 # ---------------------------------------------------------------------- train
+def ppo_arguments(cfg: TrainConfig, out: Path) -> dict[str, Any]:
+    """stable-baselines3 PPO's keyword arguments from ``cfg`` (logs under ``out``)."""
+    import torch
+
+    p = cfg.ppo
+    policy_kwargs: dict[str, Any] = {
+        "net_arch": {"pi": list(p.net_arch), "vf": list(p.net_arch)},
+        "activation_fn": {"tanh": torch.nn.Tanh, "relu": torch.nn.ReLU}[p.activation],
+    }
+    if cfg.decisions == "actions":  # Gaussian actions; a choice of goals is categorical
+        policy_kwargs["log_std_init"] = p.log_std_init
+    return {
+        "learning_rate": p.learning_rate,
+        "n_steps": p.n_steps,
+        "batch_size": p.batch_size,
+        "n_epochs": p.n_epochs,
+        "gamma": p.gamma,
+        "gae_lambda": p.gae_lambda,
+        "clip_range": p.clip_range,
+        "ent_coef": p.ent_coef,
+        "vf_coef": p.vf_coef,
+        "max_grad_norm": p.max_grad_norm,
+        "target_kl": p.target_kl,
+        "normalize_advantage": p.normalize_advantage,
+        "policy_kwargs": policy_kwargs,
+        "tensorboard_log": str(out / "tb") if cfg.tensorboard else None,
+        "seed": cfg.seed,
+        "device": "cpu",
+        "verbose": cfg.verbose,
+    }
+
+
+def learn_and_save(
+    model: Any, cfg: TrainConfig, callbacks: list[Any], path: Path
+) -> tuple[float, bool]:
+    """``model.learn`` as ``cfg`` says, then the policy saved at ``path``: (wall time
+    of the learning in s, whether Ctrl-C stopped it; what was learnt is kept)."""
+    start = time.perf_counter()
+    interrupted = False
+    try:
+        model.learn(
+            total_timesteps=cfg.total_timesteps,
+            callback=callbacks,
+            progress_bar=cfg.progress_bar,
+            tb_log_name=cfg.model_name,
+        )
+    except KeyboardInterrupt:
+        interrupted = True
+    wall = time.perf_counter() - start
+    save_policy_file(model, path)
+    return wall, interrupted
+
+
 def save_policy_file(model: Any, path: Path) -> None:
     """Save ``model`` without Adam's moment estimates: they would triple the file and
     only matter for resuming training (which then restarts the optimiser)."""
@@ -418,6 +503,10 @@ def train(config: TrainConfig | Mapping[str, Any] | str | Path | None = None) ->
     from agents.train_timing import StepTimer, TimedPPO, time_shares
 
     cfg = as_train_config(config)
+    if cfg.decisions == "goals":
+        from agents.goal_training import train_goal_choice
+
+        return train_goal_choice(cfg)
     torch.set_num_threads(cfg.torch_threads)
     policy = _check_env(cfg)
     out = Path(cfg.out_dir)
@@ -439,47 +528,10 @@ def train(config: TrainConfig | Mapping[str, Any] | str | Path | None = None) ->
                 worlds=None,
             )
             eval_env = make_train_vec_env(eval_cfg, 1, cfg.eval_seed)
-        p = cfg.ppo
-        activation = {"tanh": torch.nn.Tanh, "relu": torch.nn.ReLU}[p.activation]
-        model = TimedPPO(
-            policy,
-            train_env,
-            learning_rate=p.learning_rate,
-            n_steps=p.n_steps,
-            batch_size=p.batch_size,
-            n_epochs=p.n_epochs,
-            gamma=p.gamma,
-            gae_lambda=p.gae_lambda,
-            clip_range=p.clip_range,
-            ent_coef=p.ent_coef,
-            vf_coef=p.vf_coef,
-            max_grad_norm=p.max_grad_norm,
-            target_kl=p.target_kl,
-            normalize_advantage=p.normalize_advantage,
-            policy_kwargs={
-                "net_arch": {"pi": list(p.net_arch), "vf": list(p.net_arch)},
-                "activation_fn": activation,
-                "log_std_init": p.log_std_init,
-            },
-            tensorboard_log=str(out / "tb") if cfg.tensorboard else None,
-            seed=cfg.seed,
-            device="cpu",
-            verbose=cfg.verbose,
-        )
+        model = TimedPPO(policy, train_env, **ppo_arguments(cfg, out))
         callbacks = _make_callbacks(cfg, out, eval_env)
-        start = time.perf_counter()
-        try:
-            model.learn(
-                total_timesteps=cfg.total_timesteps,
-                callback=callbacks,
-                progress_bar=cfg.progress_bar,
-                tb_log_name=cfg.model_name,
-            )
-        except KeyboardInterrupt:
-            interrupted = True  # keep what was learnt so far
-        wall = time.perf_counter() - start
+        wall, interrupted = learn_and_save(model, cfg, callbacks, model_path)
         shares = time_shares(wall, train_env.seconds, model.update_seconds)
-        save_policy_file(model, model_path)
         evals = [c for c in callbacks if hasattr(c, "best_slam")]
         summary = {
             "model": str(model_path),

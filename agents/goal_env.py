@@ -1,0 +1,137 @@
+"""The env a goal-choosing policy learns in: one step per choice of the planner's goal.
+
+:class:`GoalChoiceEnv` wraps ``slam_env/ActiveSLAM-v0`` and a
+:class:`~agents.goal_choice.GoalChoiceAgent`: ``step(choice)`` hands the choice to the
+agent's planner, which drives (env step after env step) until its next choice is due,
+and returns that choice's :func:`~agents.goal_choice.choice_features`. The reward is
+the sum of the active-SLAM env's rewards over those env steps (its ``reward_weights``
+shape it), plus ``discovery_bonus`` for each landmark the belief gains, per landmark
+of the world, so that worlds of 10 and of 60 landmarks weigh alike. Each episode draws
+its world from a :class:`~agents.world_sampling.WorldDistribution` (or keeps the env
+options' world) and lasts :func:`~agents.world_sampling.episode_length` of its arena unless
+``max_episode_steps`` says otherwise.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+
+from agents.goal_choice import GoalChoiceAgent, choice_space, feature_space
+from agents.registry import make_env
+from agents.world_sampling import MAX_DRAWS, REFERENCE_ARENA, WorldDistribution, episode_length
+
+_SEED_BOUND = 2**31
+
+
+def _refuse_choice(features: np.ndarray) -> int:
+    raise RuntimeError("GoalChoiceEnv's agent takes its choices from step()")  # a bug here
+
+
+class GoalChoiceEnv(gym.Env):
+    """Decision-level env: observations are choice features, actions choices.
+
+    Args:
+        env_options: options of ``slam_env/ActiveSLAM-v0`` (every episode's).
+        worlds: the distribution each episode draws its world from (its options
+            override ``env_options``'); None: ``env_options``' world.
+        max_episode_steps: env steps of an episode; None: the arena's episode length.
+        discovery_bonus: reward (in the env's units, nats for the information gain)
+            for each landmark the belief gains, on top of the env's reward: the
+            information gain pays for a discovery too, and as much for refining the
+            map, so this weighs finding the landmarks early against refining them.
+    """
+
+    metadata: dict[str, Any] = {"render_modes": []}
+
+    def __init__(
+        self,
+        env_options: Mapping[str, Any] | None = None,
+        worlds: WorldDistribution | None = None,
+        max_episode_steps: int | None = None,
+        discovery_bonus: float = 0.0,
+    ) -> None:
+        bonus = discovery_bonus
+        number = isinstance(bonus, (int, float)) and not isinstance(bonus, bool)
+        if not (number and 0 <= bonus < math.inf):
+            raise ValueError(f"discovery_bonus must be a finite number >= 0, got {bonus!r}")
+        self.observation_space = feature_space()
+        self.action_space = choice_space()
+        self._options = dict(env_options or {})
+        self._worlds = worlds
+        self._max_steps = max_episode_steps
+        self._discovery_bonus = float(discovery_bonus)
+        self._env: gym.Env | None = None
+        self._agent: GoalChoiceAgent | None = None
+        self._info: dict[str, Any] = {}
+        self._n_landmarks = 1
+
+    def reset(
+        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[np.ndarray, dict[str, Any]]:
+        super().reset(seed=seed)
+        rng = self.np_random
+        self.close()
+        for _ in range(MAX_DRAWS):
+            setting = dict(self._options)
+            if self._worlds is not None:
+                setting.update(self._worlds.sample(rng))
+            side = max(
+                setting.get("width", REFERENCE_ARENA), setting.get("height", REFERENCE_ARENA)
+            )
+            agent_seed, world_seed = (int(s) for s in rng.integers(_SEED_BOUND, size=2))
+            env = make_env(setting, self._max_steps or episode_length(side, side))
+            try:
+                _, info = env.reset(seed=world_seed)
+                break
+            except ValueError:
+                env.close()
+                if self._worlds is None:
+                    raise
+                # A world that cannot be laid out in this arena: draw again.
+        else:
+            raise ValueError(f"worlds: no layable setting in {MAX_DRAWS} draws from {self._worlds}")
+        self._env = env
+        self._agent = GoalChoiceAgent(env, _refuse_choice, seed=agent_seed)
+        self._agent.reset()
+        self._n_landmarks = max(len(info["landmark_ids"]), 1)
+        self._info = info
+        features, _, terminated, truncated = self._drive(None)
+        if terminated or truncated:  # an episode over before its first choice
+            raise RuntimeError("the episode ended before the planner's first choice")
+        return features, dict(info)
+
+    def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
+        if self._agent is None:
+            raise RuntimeError("call reset() before step()")
+        if not self.action_space.contains(action):
+            raise ValueError(f"action must be an int in [0, {self.action_space.n}), got {action!r}")
+        features, reward, terminated, truncated = self._drive(int(action))
+        return features, reward, terminated, truncated, dict(self._info)
+
+    def _drive(self, choice: int | None) -> tuple[np.ndarray, float, bool, bool]:
+        """Env steps from ``choice`` (None: the episode's start) until the next choice
+        is due or the episode ends: (features, summed reward, terminated, truncated)."""
+        agent, env = self._agent, self._env
+        total = 0.0
+        action = None if choice is None else agent.finish_step(choice)
+        while True:
+            if action is not None:
+                known = self._info["landmarks_known"]
+                _, reward, terminated, truncated, self._info = env.step(action)
+                gained = self._info["landmarks_known"] - known
+                total += float(reward) + self._discovery_bonus * gained
+                if terminated or truncated:
+                    return agent.features(), total / self._n_landmarks, terminated, truncated
+            action = agent.begin_step()
+            if action is None:
+                return agent.features(), total / self._n_landmarks, False, False
+
+    def close(self) -> None:
+        if self._env is not None:
+            self._env.close()
+            self._env = None

@@ -1,0 +1,253 @@
+"""The goal-choosing policy: its features, the agent that runs it, the decision-level
+env it learns in, training it and loading it."""
+
+from __future__ import annotations
+
+import math
+
+import gymnasium as gym
+import numpy as np
+import pytest
+from gymnasium.utils.env_checker import check_env
+
+from agents.frontier import EXPLORE, LOCALISE, REFINE, FrontierAgent
+from agents.goal_choice import (
+    CHOICES,
+    N_FEATURES,
+    GoalChoiceAgent,
+    choice_space,
+    feature_space,
+)
+from agents.goal_env import GoalChoiceEnv
+from agents.goal_training import load_goal_agent
+from agents.registry import SHIPPED_POLICY, agent_label, make_agent, make_env
+from agents.suite import suite_settings
+from agents.training import ConfigError, config_from_dict, train
+from agents.world_sampling import WorldDistribution
+
+INFORMATION_ONLY = {
+    "reward_weights": {
+        "information_gain": 1.0,
+        "pose_uncertainty": 0.0,
+        "collision": 0.0,
+        "step": 0.0,
+        "coverage": 0.0,
+    }
+}
+SMALL_WORLDS = WorldDistribution(
+    presets=("random", "rooms"),
+    arena_sizes=(8.0, 10.0),
+    landmark_counts=(4, 9),
+    obstacle_counts=(0, 2),
+    sensor_ranges=(2.0, 4.0),
+    fovs=(2.0, 2 * np.pi),
+)
+
+
+class Recorder:
+    """A policy that answers from a fixed cycle of choices and keeps what it saw."""
+
+    def __init__(self, cycle: tuple[int, ...] = (0,)) -> None:
+        self.cycle = cycle
+        self.seen: list[np.ndarray] = []
+
+    def __call__(self, features: np.ndarray) -> int:
+        self.seen.append(features)
+        return self.cycle[(len(self.seen) - 1) % len(self.cycle)]
+
+
+def run(agent: GoalChoiceAgent, env: gym.Env, seed: int, steps: int) -> list[np.ndarray]:
+    obs, _ = env.reset(seed=seed)
+    actions = []
+    for _ in range(steps):
+        action, _ = agent.predict(obs)
+        actions.append(action)
+        obs, _, terminated, truncated, _ = env.step(action)
+        if terminated or truncated:
+            break
+    return actions
+
+
+def test_features_have_one_size_on_every_setting_of_the_suite():
+    for setting in suite_settings("default"):
+        env = make_env(setting.env_options, 25)
+        policy = Recorder(tuple(range(len(CHOICES))))
+        run(GoalChoiceAgent(env, policy, seed=0), env, seed=1, steps=25)
+        env.close()
+        assert policy.seen, setting.name
+        for x in policy.seen:
+            assert x.shape == (N_FEATURES,) and x.dtype == np.float32
+            assert feature_space().contains(x), (setting.name, x)
+
+
+def test_a_choice_sets_the_planners_mode_and_weighting():
+    env = make_env({}, 80)
+    agent = GoalChoiceAgent(env, Recorder(), seed=0)
+    env.reset(seed=2)
+    agent.reset()
+    assert agent.begin_step() is None  # the first step needs a goal
+    first = agent.features()
+    action = agent.finish_step(1)
+    assert env.action_space.contains(action)
+    assert agent.mode == EXPLORE and agent._gain_weight == CHOICES[1].gain_weight == 0.5
+    assert agent.goal is not None or agent._look_at is not None  # a path, or a point to face
+    # Nothing is known yet: neither a loop closure nor a revisit has a landmark.
+    assert first[-6] == 0.0 and first[-3] == 0.0
+    for _ in range(60):  # explore on, then stop at the next choice
+        env.step(action)
+        action = agent.begin_step()
+        if action is None:
+            action = agent.finish_step(0)
+    while action is not None:
+        env.step(action)
+        action = agent.begin_step()
+    assert agent._base.filter.n_landmarks > 0
+    assert agent.features()[-3] == 1.0  # a landmark to revisit
+    agent.finish_step(4)
+    assert agent.mode == REFINE and agent.target_landmark is not None
+
+
+def test_bad_choices_are_refused_and_change_nothing():
+    env = make_env({}, 60)
+    agent = GoalChoiceAgent(env, Recorder(), seed=0)
+    env.reset(seed=2)
+    agent.reset()
+    with pytest.raises(RuntimeError, match="begin_step"):
+        agent.finish_step(0)
+    assert agent.begin_step() is None
+    for bad in (-1, len(CHOICES)):
+        with pytest.raises(ValueError, match="choice must be"):
+            agent.finish_step(bad)
+        assert agent.goal is None and agent.mode == EXPLORE
+    assert env.action_space.contains(agent.finish_step(0))
+
+
+def test_always_the_frontier_weighting_without_loop_closing_is_the_frontier_agent_so():
+    """Choice 0 every time is the frontier agent with its loop closing switched off."""
+    ours = make_env({}, 120)
+    theirs = make_env({}, 120)
+    no_loops = {"loop_close_std": 1e6, "loop_close_done_std": 1e6}
+    a = run(GoalChoiceAgent(ours, Recorder((0,)), seed=3), ours, seed=4, steps=120)
+    b = run(FrontierAgent(theirs, seed=3, **no_loops), theirs, seed=4, steps=120)
+    assert len(a) == len(b) == 120
+    np.testing.assert_array_equal(np.array(a), np.array(b))
+
+
+def test_the_env_passes_the_checker_and_repeats_itself():
+    env = GoalChoiceEnv(INFORMATION_ONLY, SMALL_WORLDS, max_episode_steps=40)
+    check_env(env, skip_render_check=True)
+
+    def stream(seed: int) -> list[tuple]:
+        obs, _ = env.reset(seed=seed)
+        out = [obs.tobytes()]
+        for k in range(30):
+            obs, reward, terminated, truncated, _ = env.step(k % len(CHOICES))
+            out.append((obs.tobytes(), reward, terminated, truncated))
+            if terminated or truncated:
+                obs, _ = env.reset()
+                out.append(obs.tobytes())
+        return out
+
+    assert stream(5) == stream(5)
+    assert stream(5) != stream(6)
+    env.close()
+
+
+@pytest.mark.parametrize("bonus", [0.0, 15.0])
+def test_the_return_is_the_entropy_taken_off_and_the_discoveries_per_landmark(bonus):
+    env = GoalChoiceEnv(INFORMATION_ONLY, max_episode_steps=50, discovery_bonus=bonus)
+    _, info = env.reset(seed=3)
+    start, n, known = info["entropy"], len(info["landmark_ids"]), info["landmarks_known"]
+    total, done, choices = 0.0, False, 0
+    while not done:
+        _, reward, terminated, truncated, info = env.step(choices % len(CHOICES))
+        assert isinstance(reward, float)
+        total += reward
+        done = terminated or truncated
+        choices += 1
+    assert truncated and choices > 1 and info["landmarks_known"] > known
+    expected = (start - info["entropy"] + bonus * (info["landmarks_known"] - known)) / n
+    assert total == pytest.approx(expected, rel=1e-9, abs=1e-9)
+
+
+@pytest.mark.parametrize("bonus", [-1.0, math.inf, math.nan, True, "1"])
+def test_a_bad_discovery_bonus_is_refused(bonus):
+    with pytest.raises(ValueError, match="discovery_bonus"):
+        GoalChoiceEnv({}, discovery_bonus=bonus)
+    with pytest.raises(ConfigError, match="discovery_bonus"):
+        config_from_dict({"decisions": "goals", "vectorization": "dummy", "discovery_bonus": bonus})
+
+
+def test_worlds_that_cannot_be_laid_out_are_drawn_again():
+    crowded = {"presets": ("random",), "arena_sizes": (8.0,), "obstacle_counts": (40,)}
+    env = GoalChoiceEnv(
+        {}, WorldDistribution(**{**crowded, "obstacle_counts": (40, 1)}), max_episode_steps=20
+    )
+    for seed in range(3):
+        env.reset(seed=seed)  # the 40-obstacle draws fail, the 1-obstacle ones do not
+    with pytest.raises(ValueError, match="no layable setting"):
+        GoalChoiceEnv({}, WorldDistribution(**crowded)).reset(seed=0)
+    env.close()
+
+
+def test_bad_actions_are_refused():
+    env = GoalChoiceEnv({}, max_episode_steps=20)
+    with pytest.raises(RuntimeError, match="reset"):
+        env.step(0)
+    env.reset(seed=0)
+    for bad in (len(CHOICES), -1, 0.5, "0"):
+        with pytest.raises(ValueError, match="action must be"):
+            env.step(bad)
+
+
+def test_goal_training_configs_are_checked():
+    with pytest.raises(ConfigError, match="decisions"):
+        config_from_dict({"decisions": "waypoints"})
+    with pytest.raises(ConfigError, match="subproc or dummy"):
+        config_from_dict({"decisions": "goals", "vectorization": "native"})
+    cfg = config_from_dict({"decisions": "goals", "vectorization": "dummy", "worlds": {}})
+    assert cfg.decisions == "goals"
+    with pytest.raises(ConfigError, match="0 unless decisions is goals"):
+        config_from_dict({"discovery_bonus": 1.0})  # the env steps' reward has no such term
+
+
+def test_training_smoke_run_then_the_policy_runs_on_every_setting_of_the_suite(tmp_path):
+    path = train(
+        {
+            "decisions": "goals",
+            "total_timesteps": 64,
+            "n_envs": 2,
+            "vectorization": "dummy",
+            "seed": 1,
+            "env_options": INFORMATION_ONLY,
+            "worlds": {"arena_sizes": [8.0], "landmark_counts": [4, 9]},
+            "max_episode_steps": 30,
+            "progress_bar": False,
+            "tensorboard": False,
+            "checkpoint_freq": 0,
+            "eval_freq": 32,
+            "eval_episodes": 1,
+            "out_dir": str(tmp_path),
+            "ppo": {"n_steps": 32, "batch_size": 32, "n_epochs": 1, "net_arch": [8]},
+        }
+    )
+    assert (tmp_path / "training_summary.json").is_file()
+    assert (tmp_path / "eval" / "evaluations.npz").is_file()
+    assert agent_label(f"goals:{path}") == "goals:" + path.stem
+    for setting in suite_settings("default"):
+        env = make_env(setting.env_options, 12)
+        agent = make_agent(f"goals:{path}", env, seed=0)
+        actions = run(agent, env, seed=0, steps=12)
+        assert all(env.action_space.contains(a) for a in actions)
+        env.close()
+
+
+def test_loading_refuses_what_is_not_a_goal_policy(tmp_path):
+    env = make_env({}, 10)
+    with pytest.raises(ValueError, match="not a goal-choosing policy"):
+        load_goal_agent(SHIPPED_POLICY, env)
+    with pytest.raises(ValueError, match="not found"):
+        make_agent(f"goals:{tmp_path / 'missing.zip'}", env)
+    with pytest.raises(ValueError, match="needs a path"):
+        make_agent("goals:", env)
+    assert choice_space().n == len(CHOICES) and LOCALISE in {c.mode for c in CHOICES}
