@@ -20,7 +20,7 @@ from agents.goal_choice import (
 )
 from agents.goal_env import GoalChoiceEnv
 from agents.goal_training import load_goal_agent
-from agents.registry import SHIPPED_POLICY, agent_label, make_agent, make_env
+from agents.registry import SHIPPED_GOAL_POLICY, SHIPPED_POLICY, agent_label, make_agent, make_env
 from agents.suite import suite_settings
 from agents.training import ConfigError, config_from_dict, train
 from agents.world_sampling import WorldDistribution
@@ -251,3 +251,16 @@ def test_loading_refuses_what_is_not_a_goal_policy(tmp_path):
     with pytest.raises(ValueError, match="needs a path"):
         make_agent("goals:", env)
     assert choice_space().n == len(CHOICES) and LOCALISE in {c.mode for c in CHOICES}
+
+
+def test_the_shipped_policy_runs_on_every_setting_of_the_suite():
+    assert SHIPPED_GOAL_POLICY.is_file()
+    assert SHIPPED_GOAL_POLICY.stat().st_size < 1_000_000  # a small file, shipped in the wheel
+    assert agent_label("goals") == "goals"
+    for setting in suite_settings("default"):
+        env = make_env(setting.env_options, 15)
+        agent = make_agent("goals", env, seed=0)
+        assert isinstance(agent, GoalChoiceAgent)
+        actions = run(agent, env, seed=0, steps=15)
+        assert len(actions) == 15 and all(env.action_space.contains(a) for a in actions)
+        env.close()
