@@ -79,7 +79,7 @@ def train_goal_choice(cfg: TrainConfig) -> Path:
         cfg.torch_threads,
         cfg.discovery_bonus,
     )
-    dataclasses.replace(factory, torch_threads=1)().close()  # a bad config fails here
+    dataclasses.replace(factory, torch_threads=1)().close()  # a bad bonus fails here, in-process
     if cfg.vectorization == "subproc":
         vec_cls, vec_kwargs = SubprocVecEnv, {"start_method": cfg.start_method}
     else:
