@@ -8,8 +8,10 @@ import math
 import gymnasium as gym
 import numpy as np
 import pytest
+import yaml
 from gymnasium.utils.env_checker import check_env
 
+from agents.cli import main as cli_main
 from agents.frontier import EXPLORE, LOCALISE, REFINE, FrontierAgent
 from agents.goal_choice import (
     CHOICES,
@@ -264,3 +266,30 @@ def test_the_shipped_policy_runs_on_every_setting_of_the_suite():
         actions = run(agent, env, seed=0, steps=15)
         assert len(actions) == 15 and all(env.action_space.contains(a) for a in actions)
         env.close()
+
+
+def test_cli_trains_a_goal_policy_and_says_how_many_choices(tmp_path, capsys):
+    config = tmp_path / "goals.yaml"
+    config.write_text(
+        yaml.safe_dump(
+            {
+                "decisions": "goals",
+                "vectorization": "dummy",
+                "discovery_bonus": 2.0,
+                "env_options": INFORMATION_ONLY,
+                "worlds": {"arena_sizes": [8.0], "landmark_counts": [4]},
+                "max_episode_steps": 20,
+                "checkpoint_freq": 0,
+                "eval_freq": 0,
+                "tensorboard": False,
+                "ppo": {"n_steps": 16, "batch_size": 16, "n_epochs": 1, "net_arch": [8]},
+            }
+        )
+    )
+    out = tmp_path / "run"
+    argv = ["train", "--config", str(config), "--total-steps", "32", "--n-envs", "1"]
+    assert cli_main([*argv, "--out", str(out), "--no-progress"]) == 0
+    saved = yaml.safe_load((out / "ppo_active_slam.yaml").read_text())
+    assert (saved["decisions"], saved["discovery_bonus"]) == ("goals", 2.0)
+    printed = capsys.readouterr().out
+    assert "32 choices in" in printed and "choices/s with 1 envs, dummy" in printed
