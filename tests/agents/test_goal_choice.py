@@ -157,7 +157,8 @@ def test_the_env_passes_the_checker_and_repeats_itself():
 
 @pytest.mark.parametrize("bonus", [0.0, 15.0])
 def test_the_return_is_the_entropy_taken_off_and_the_discoveries_per_landmark(bonus):
-    env = GoalChoiceEnv(INFORMATION_ONLY, max_episode_steps=50, discovery_bonus=bonus)
+    extra = {"discovery_bonus": bonus} if bonus else {}  # 0 is the default
+    env = GoalChoiceEnv(INFORMATION_ONLY, max_episode_steps=50, **extra)
     _, info = env.reset(seed=3)
     start, n, known = info["entropy"], len(info["landmark_ids"]), info["landmarks_known"]
     total, done, choices = 0.0, False, 0
