@@ -128,6 +128,13 @@ class DenseFEJ:
             self.slot[lid] = (d - 3) // 2
 
 
+def _random_control(rng: np.random.Generator, motion: str) -> np.ndarray:
+    """A forward move with some turning, in the control of ``motion``."""
+    if motion == "odometry":
+        return np.array([rng.uniform(-0.3, 0.3), rng.uniform(0.1, 0.6), rng.uniform(-0.3, 0.3)])
+    return np.array([rng.uniform(0.1, 0.6), rng.uniform(-0.4, 0.4)])
+
+
 @pytest.mark.parametrize(("motion", "measurement", "correction"), COMBOS)
 def test_the_standard_linearization_is_the_seeds_filter_to_1e_12(
     dense_reference, motion, measurement, correction
@@ -163,11 +170,7 @@ def test_fej_matches_a_dense_filter_with_jacobians_at_the_first_estimates(motion
     mm, hm = MOTION_MODELS[motion], MEASUREMENT_MODELS[measurement]
     pose = pose0.copy()
     for _ in range(40):
-        u = (
-            np.array([rng.uniform(-0.3, 0.3), rng.uniform(0.1, 0.6), rng.uniform(-0.3, 0.3)])
-            if motion == "odometry"
-            else np.array([rng.uniform(0.1, 0.6), rng.uniform(-0.4, 0.4)])
-        )
+        u = _random_control(rng, motion)
         pose = mm.motion(pose, u)
         f.predict(u)
         dense.predict(u)
@@ -249,11 +252,7 @@ def test_fej_never_learns_the_global_rotation(motion, measurement, correction):
         rng = np.random.default_rng(11)
         pose, first_marks, mixed, worst[lin] = pose0.copy(), {}, 0, 0.0
         for _ in range(40):
-            u = (
-                np.array([rng.uniform(-0.3, 0.3), rng.uniform(0.1, 0.6), rng.uniform(-0.3, 0.3)])
-                if motion == "odometry"
-                else np.array([rng.uniform(0.1, 0.6), rng.uniform(-0.4, 0.4)])
-            )
+            u = _random_control(rng, motion)
             pose = mm.motion(pose, u)
             a.predict(u)
             b.predict(u)
