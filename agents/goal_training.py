@@ -19,7 +19,6 @@ shape the reward (:class:`~agents.goal_env.GoalChoiceEnv`).
 from __future__ import annotations
 
 import dataclasses
-import json
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -31,11 +30,12 @@ from agents.goal_choice import CHOICES, GoalChoiceAgent, choice_space, feature_s
 from agents.goal_env import GoalChoiceEnv
 from agents.training import (
     TrainConfig,
-    _close,
     _write_yaml,
     checkpoint_callbacks,
+    close_envs,
     learn_and_save,
     ppo_arguments,
+    write_summary,
 )
 from agents.world_sampling import WorldDistribution
 
@@ -112,7 +112,7 @@ def train_goal_choice(cfg: TrainConfig) -> Path:
                 )
             )
         wall, interrupted = learn_and_save(model, cfg, callbacks, model_path)
-        episodes = list(model.ep_info_buffer)
+        episodes = list(model.ep_info_buffer or ())  # None if stopped before the first rollout
         summary = {
             "model": str(model_path),
             "choices": int(model.num_timesteps),
@@ -126,13 +126,9 @@ def train_goal_choice(cfg: TrainConfig) -> Path:
                 round(float(np.mean([e["r"] for e in episodes])), 4) if episodes else None
             ),
         }
-        (out / "training_summary.json").write_text(json.dumps(summary, indent=2) + "\n")
-        if interrupted:
-            raise KeyboardInterrupt(f"training interrupted; model saved to {model_path}")
+        write_summary(out, summary, interrupted, model_path)
     finally:
-        _close(train_env, quietly=interrupted)
-        if eval_env is not None:
-            _close(eval_env, quietly=interrupted)
+        close_envs(interrupted, train_env, eval_env)
     return model_path
 
 

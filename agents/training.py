@@ -548,14 +548,25 @@ def train(config: TrainConfig | Mapping[str, Any] | str | Path | None = None) ->
             "best_eval_slam": _finite_map(evals[0].best_slam) if evals else None,
             "best_model_criterion": BEST_MODEL_CRITERION,
         }
-        (out / "training_summary.json").write_text(json.dumps(summary, indent=2) + "\n")
-        if interrupted:
-            raise KeyboardInterrupt(f"training interrupted; model saved to {model_path}")
+        write_summary(out, summary, interrupted, model_path)
     finally:
-        _close(train_env, quietly=interrupted)
-        if eval_env is not None:
-            _close(eval_env, quietly=interrupted)
+        close_envs(interrupted, train_env, eval_env)
     return model_path
+
+
+def write_summary(out: Path, summary: dict[str, Any], interrupted: bool, model: Path) -> None:
+    """``training_summary.json`` into ``out``; then, if Ctrl-C stopped the training,
+    the ``KeyboardInterrupt`` that says where the policy was saved."""
+    (out / "training_summary.json").write_text(json.dumps(summary, indent=2) + "\n")
+    if interrupted:
+        raise KeyboardInterrupt(f"training interrupted; model saved to {model}")
+
+
+def close_envs(interrupted: bool, *vec_envs: Any) -> None:
+    """Close the training's VecEnvs (None: not made), quietly after a Ctrl-C."""
+    for vec_env in vec_envs:
+        if vec_env is not None:
+            _close(vec_env, quietly=interrupted)
 
 
 def _close(vec_env: Any, quietly: bool) -> None:

@@ -306,3 +306,29 @@ def test_ppo_episodes_side_by_side_equal_the_single_env_episodes(trained):
         )
         assert side_by_side.layout == alone.layout
     env.close()
+
+
+@pytest.mark.parametrize("decisions", ["actions", "goals"])
+def test_ctrl_c_keeps_the_policy_says_where_and_closes_the_envs(tmp_path, monkeypatch, decisions):
+    from agents.train_timing import TimedPPO
+
+    def interrupted(self, *args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(TimedPPO, "learn", interrupted)
+    closed = []
+    import agents.training
+
+    real_close = agents.training._close
+    monkeypatch.setattr(
+        agents.training,
+        "_close",
+        lambda env, quietly: (closed.append(quietly), real_close(env, quietly)),
+    )
+    extra = {"decisions": "goals", "vectorization": "dummy"} if decisions == "goals" else {}
+    with pytest.raises(KeyboardInterrupt, match=r"model saved to .*ppo_active_slam\.zip"):
+        train(tiny_config(tmp_path, **extra))
+    assert (tmp_path / "ppo_active_slam.zip").is_file()
+    summary = json.loads((tmp_path / "training_summary.json").read_text())
+    assert summary["interrupted"] is True
+    assert closed == [True, True]  # the training and evaluation envs, quietly
