@@ -5,8 +5,9 @@
 agent's planner, which drives (env step after env step) until its next choice is due,
 and returns that choice's :func:`~agents.goal_choice.choice_features`. The reward is
 the sum of the active-SLAM env's rewards over those env steps (its ``reward_weights``
-shape it), plus ``discovery_bonus`` for each landmark the belief gains, per landmark
-of the world, so that worlds of 10 and of 60 landmarks weigh alike. Each episode draws
+shape it), plus ``discovery_bonus`` for each landmark the belief gains (up to
+``discovery_until`` of the world's landmarks), per landmark of the world, so that
+worlds of 10 and of 60 landmarks weigh alike. Each episode draws
 its world from a :class:`~agents.world_sampling.WorldDistribution` (or keeps the env
 options' world) and lasts :func:`~agents.world_sampling.episode_length` of its arena unless
 ``max_episode_steps`` says otherwise.
@@ -28,6 +29,10 @@ from agents.world_sampling import MAX_DRAWS, REFERENCE_ARENA, WorldDistribution,
 _SEED_BOUND = 2**31
 
 
+def _is_number(value: Any) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool)
+
+
 def _refuse_choice(features: np.ndarray) -> int:
     raise RuntimeError("GoalChoiceEnv's agent takes its choices from step()")  # a bug here
 
@@ -44,6 +49,9 @@ class GoalChoiceEnv(gym.Env):
             for each landmark the belief gains, on top of the env's reward: the
             information gain pays for a discovery too, and as much for refining the
             map, so this weighs finding the landmarks early against refining them.
+        discovery_until: the share of the world's landmarks, in (0, 1], up to which
+            discoveries earn the bonus (0.9: the first 90%, after which only the env's
+            reward pays, so that the last landmarks weigh no more than loop closures).
     """
 
     metadata: dict[str, Any] = {"render_modes": []}
@@ -54,21 +62,26 @@ class GoalChoiceEnv(gym.Env):
         worlds: WorldDistribution | None = None,
         max_episode_steps: int | None = None,
         discovery_bonus: float = 0.0,
+        discovery_until: float = 1.0,
     ) -> None:
-        bonus = discovery_bonus
-        number = isinstance(bonus, (int, float)) and not isinstance(bonus, bool)
-        if not (number and 0 <= bonus < math.inf):
-            raise ValueError(f"discovery_bonus must be a finite number >= 0, got {bonus!r}")
+        if not (_is_number(discovery_bonus) and 0 <= discovery_bonus < math.inf):
+            raise ValueError(
+                f"discovery_bonus must be a finite number >= 0, got {discovery_bonus!r}"
+            )
+        if not (_is_number(discovery_until) and 0 < discovery_until <= 1):
+            raise ValueError(f"discovery_until must be a number in (0, 1], got {discovery_until!r}")
         self.observation_space = feature_space()
         self.action_space = choice_space()
         self._options = dict(env_options or {})
         self._worlds = worlds
         self._max_steps = max_episode_steps
         self._discovery_bonus = float(discovery_bonus)
+        self._discovery_until = float(discovery_until)
         self._env: gym.Env | None = None
         self._agent: GoalChoiceAgent | None = None
         self._info: dict[str, Any] = {}
         self._n_landmarks = 1
+        self._paid_until = 1.0  # landmarks known up to which a discovery earns the bonus
 
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
@@ -99,6 +112,7 @@ class GoalChoiceEnv(gym.Env):
         self._agent = GoalChoiceAgent(env, _refuse_choice, seed=agent_seed)
         self._agent.reset()
         self._n_landmarks = max(len(info["landmark_ids"]), 1)
+        self._paid_until = self._discovery_until * self._n_landmarks
         self._info = info
         features, _, terminated, truncated = self._drive(None)
         if terminated or truncated:  # an episode over before its first choice
@@ -123,8 +137,9 @@ class GoalChoiceEnv(gym.Env):
             if action is not None:
                 known = self._info["landmarks_known"]
                 _, reward, terminated, truncated, self._info = env.step(action)
-                gained = self._info["landmarks_known"] - known
-                total += float(reward) + self._discovery_bonus * gained
+                now, cap = self._info["landmarks_known"], self._paid_until
+                paid = max(min(now, cap) - min(known, cap), 0.0)  # fractional at the cap
+                total += float(reward) + self._discovery_bonus * paid
                 if terminated or truncated:
                     return agent.features(), total / self._n_landmarks, terminated, truncated
             action = agent.begin_step()

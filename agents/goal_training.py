@@ -49,13 +49,16 @@ class GoalEnvFactory:
     max_steps: int | None
     torch_threads: int
     discovery_bonus: float = 0.0
+    discovery_until: float = 1.0
 
     def __call__(self) -> gym.Env:
         import torch
 
         torch.set_num_threads(self.torch_threads)
         worlds = None if self.worlds is None else WorldDistribution.from_mapping(self.worlds)
-        return GoalChoiceEnv(self.env_options, worlds, self.max_steps, self.discovery_bonus)
+        return GoalChoiceEnv(
+            self.env_options, worlds, self.max_steps, self.discovery_bonus, self.discovery_until
+        )
 
 
 def train_goal_choice(cfg: TrainConfig) -> Path:
@@ -78,6 +81,7 @@ def train_goal_choice(cfg: TrainConfig) -> Path:
         cfg.max_episode_steps,
         cfg.torch_threads,
         cfg.discovery_bonus,
+        cfg.discovery_until,
     )
     dataclasses.replace(factory, torch_threads=1)().close()  # a bad bonus fails here, in-process
     if cfg.vectorization == "subproc":

@@ -88,6 +88,7 @@ class TrainConfig:
     # decisions: goals: reward per landmark the belief gains, beside the env's reward
     # (agents.goal_env.GoalChoiceEnv); 0 for decisions: actions.
     discovery_bonus: float = 0.0
+    discovery_until: float = 1.0  # the share of the landmarks whose discovery earns it
     n_envs: int = 2  # sub-envs stepped together (worker processes for "subproc")
     vectorization: str = "native"  # one of VECTORIZATIONS
     seed: int = 0
@@ -189,6 +190,14 @@ def validate_config(cfg: TrainConfig) -> TrainConfig:
         "discovery_bonus",
         bonus,
         "0 unless decisions is goals",
+    )
+    until = cfg.discovery_until
+    _check(_is_number(until) and 0.0 < until <= 1.0, "discovery_until", until, "a number in (0, 1]")
+    _check(
+        until == 1.0 or cfg.decisions == "goals",
+        "discovery_until",
+        until,
+        "1 unless decisions is goals",
     )
     _check(isinstance(cfg.env_options, dict), "env_options", cfg.env_options, "a mapping")
     _check(

@@ -155,12 +155,14 @@ def test_the_env_passes_the_checker_and_repeats_itself():
     env.close()
 
 
-@pytest.mark.parametrize("bonus", [0.0, 15.0])
-def test_the_return_is_the_entropy_taken_off_and_the_discoveries_per_landmark(bonus):
-    extra = {"discovery_bonus": bonus} if bonus else {}  # 0 is the default
+@pytest.mark.parametrize("bonus, until", [(0.0, 1.0), (15.0, 1.0), (15.0, 0.25)])
+def test_the_return_is_the_entropy_taken_off_and_the_discoveries_per_landmark(bonus, until):
+    extra = {"discovery_bonus": bonus} if bonus else {}  # 0 and 1 are the defaults
+    extra.update({"discovery_until": until} if until < 1 else {})
     env = GoalChoiceEnv(INFORMATION_ONLY, max_episode_steps=50, **extra)
     _, info = env.reset(seed=3)
     start, n, known = info["entropy"], len(info["landmark_ids"]), info["landmarks_known"]
+    paid_up_to = until * n  # 5 of the 20 landmarks with 0.25: the cap is reached
     total, done, choices = 0.0, False, 0
     while not done:
         _, reward, terminated, truncated, info = env.step(choices % len(CHOICES))
@@ -169,7 +171,9 @@ def test_the_return_is_the_entropy_taken_off_and_the_discoveries_per_landmark(bo
         done = terminated or truncated
         choices += 1
     assert truncated and choices > 1 and info["landmarks_known"] > known
-    expected = (start - info["entropy"] + bonus * (info["landmarks_known"] - known)) / n
+    assert until == 1 or known < paid_up_to < info["landmarks_known"]  # the cap bites
+    paid = min(info["landmarks_known"], paid_up_to) - known
+    expected = (start - info["entropy"] + bonus * paid) / n
     assert total == pytest.approx(expected, rel=1e-9, abs=1e-9)
 
 
@@ -179,6 +183,14 @@ def test_a_bad_discovery_bonus_is_refused(bonus):
         GoalChoiceEnv({}, discovery_bonus=bonus)
     with pytest.raises(ConfigError, match="discovery_bonus"):
         config_from_dict({"decisions": "goals", "vectorization": "dummy", "discovery_bonus": bonus})
+
+
+@pytest.mark.parametrize("until", [0.0, -0.5, 1.01, math.inf, math.nan, True, "1"])
+def test_a_bad_discovery_until_is_refused(until):
+    with pytest.raises(ValueError, match="discovery_until"):
+        GoalChoiceEnv({}, discovery_until=until)
+    with pytest.raises(ConfigError, match="discovery_until"):
+        config_from_dict({"decisions": "goals", "vectorization": "dummy", "discovery_until": until})
 
 
 def test_worlds_that_cannot_be_laid_out_are_drawn_again():
@@ -212,6 +224,8 @@ def test_goal_training_configs_are_checked():
     assert cfg.decisions == "goals"
     with pytest.raises(ConfigError, match="0 unless decisions is goals"):
         config_from_dict({"discovery_bonus": 1.0})  # the env steps' reward has no such term
+    with pytest.raises(ConfigError, match="1 unless decisions is goals"):
+        config_from_dict({"discovery_until": 0.5})
 
 
 def test_training_smoke_run_then_the_policy_runs_on_every_setting_of_the_suite(tmp_path):
