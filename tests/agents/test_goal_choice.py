@@ -177,6 +177,21 @@ def test_the_return_is_the_entropy_taken_off_and_the_discoveries_per_landmark(bo
     assert total == pytest.approx(expected, rel=1e-9, abs=1e-9)
 
 
+def test_in_a_world_of_one_landmark_the_return_is_not_divided():
+    env = GoalChoiceEnv(
+        {**INFORMATION_ONLY, "n_landmarks": 1}, max_episode_steps=40, discovery_bonus=15.0
+    )
+    _, info = env.reset(seed=3)
+    start, known = info["entropy"], info["landmarks_known"]
+    total, done = 0.0, False
+    while not done:
+        _, reward, terminated, truncated, info = env.step(0)
+        total += reward
+        done = terminated or truncated
+    assert (known, info["landmarks_known"]) == (0, 1)
+    assert total == pytest.approx(start - info["entropy"] + 15.0, rel=1e-9)
+
+
 @pytest.mark.parametrize("bonus", [-1.0, math.inf, math.nan, True, "1"])
 def test_a_bad_discovery_bonus_is_refused(bonus):
     with pytest.raises(ValueError, match="discovery_bonus"):
