@@ -154,7 +154,7 @@ def choice_features(agent: GoalChoiceAgent, dist: np.ndarray) -> np.ndarray:
     pose = f.pose
     side = max(float(cfg.world.width), float(cfg.world.height))
     pc = f.pose_cov
-    sigma = math.sqrt(max(pc[0, 0] + pc[1, 1], 0.0))
+    sigma = agent._sigma()
     n = f.n_landmarks
     if n:
         sig = np.sqrt(np.maximum(np.trace(f.landmark_covs(), axis1=1, axis2=2), 0.0))
