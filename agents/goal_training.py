@@ -33,6 +33,7 @@ from agents.training import (
     _write_yaml,
     checkpoint_callbacks,
     close_envs,
+    eval_arguments,
     learn_and_save,
     ppo_arguments,
     write_summary,
@@ -104,17 +105,7 @@ def train_goal_choice(cfg: TrainConfig) -> Path:
             eval_env = StepTimer(
                 make_vec_env(default_world, 1, seed=cfg.eval_seed, vec_env_cls=DummyVecEnv)
             )
-            callbacks.append(
-                EvalCallback(
-                    eval_env,
-                    n_eval_episodes=cfg.eval_episodes,
-                    eval_freq=max(cfg.eval_freq // cfg.n_envs, 1),
-                    log_path=str(out / "eval"),
-                    best_model_save_path=str(out / "eval"),
-                    deterministic=True,
-                    verbose=cfg.verbose,
-                )
-            )
+            callbacks.append(EvalCallback(eval_env, **eval_arguments(cfg, out)))
         wall, interrupted = learn_and_save(model, cfg, callbacks, model_path)
         episodes = list(model.ep_info_buffer or ())  # None if stopped before the first rollout
         summary = {

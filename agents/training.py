@@ -414,22 +414,26 @@ def checkpoint_callbacks(cfg: TrainConfig, out: Path) -> list[Any]:
     ]
 
 
+def eval_arguments(cfg: TrainConfig, out: Path) -> dict[str, Any]:
+    """SB3's ``EvalCallback`` keyword arguments from ``cfg``: ``cfg.eval_episodes``
+    greedy episodes every ``cfg.eval_freq`` steps, logs and best model in ``out/eval``."""
+    return {
+        "n_eval_episodes": cfg.eval_episodes,
+        "eval_freq": max(cfg.eval_freq // cfg.n_envs, 1),
+        "log_path": str(out / "eval"),
+        "best_model_save_path": str(out / "eval"),
+        "deterministic": True,
+        "verbose": cfg.verbose,
+    }
+
+
 def _make_callbacks(cfg: TrainConfig, out: Path, eval_env: Any) -> list[Any]:
     from agents.slam_callbacks import SlamEvalCallback, SlamMetricsCallback
 
     callbacks: list[Any] = [SlamMetricsCallback(), *checkpoint_callbacks(cfg, out)]
     if cfg.eval_freq > 0:
         callbacks.append(
-            SlamEvalCallback(
-                eval_env,
-                eval_seed=cfg.eval_seed,
-                n_eval_episodes=cfg.eval_episodes,
-                eval_freq=max(cfg.eval_freq // cfg.n_envs, 1),
-                log_path=str(out / "eval"),
-                best_model_save_path=str(out / "eval"),
-                deterministic=True,
-                verbose=cfg.verbose,
-            )
+            SlamEvalCallback(eval_env, eval_seed=cfg.eval_seed, **eval_arguments(cfg, out))
         )
     return callbacks
 
