@@ -29,6 +29,15 @@ from agents.world_sampling import MAX_DRAWS, REFERENCE_ARENA, WorldDistribution,
 _SEED_BOUND = 2**31
 
 
+def check_discovery(bonus: Any, until: Any) -> None:
+    """``ValueError`` unless ``discovery_bonus`` is a finite number >= 0 and
+    ``discovery_until`` a number in (0, 1] (:class:`GoalChoiceEnv`'s arguments)."""
+    if not (_is_number(bonus) and 0 <= bonus < math.inf):
+        raise ValueError(f"discovery_bonus must be a finite number >= 0, got {bonus!r}")
+    if not (_is_number(until) and 0 < until <= 1):
+        raise ValueError(f"discovery_until must be a number in (0, 1], got {until!r}")
+
+
 def _is_number(value: Any) -> bool:
     return isinstance(value, (int, float)) and not isinstance(value, bool)
 
@@ -64,12 +73,7 @@ class GoalChoiceEnv(gym.Env):
         discovery_bonus: float = 0.0,
         discovery_until: float = 1.0,
     ) -> None:
-        if not (_is_number(discovery_bonus) and 0 <= discovery_bonus < math.inf):
-            raise ValueError(
-                f"discovery_bonus must be a finite number >= 0, got {discovery_bonus!r}"
-            )
-        if not (_is_number(discovery_until) and 0 < discovery_until <= 1):
-            raise ValueError(f"discovery_until must be a number in (0, 1], got {discovery_until!r}")
+        check_discovery(discovery_bonus, discovery_until)
         self.observation_space = feature_space()
         self.action_space = choice_space()
         self._options = dict(env_options or {})

@@ -178,27 +178,19 @@ def validate_config(cfg: TrainConfig) -> TrainConfig:
         v = getattr(cfg, name)
         _check(_is_int(v) and v >= 0, name, v, "an int >= 0")
     _check(cfg.decisions in DECISIONS, "decisions", cfg.decisions, f"one of {DECISIONS}")
-    bonus = cfg.discovery_bonus
-    _check(
-        _is_number(bonus) and 0.0 <= bonus < math.inf,
-        "discovery_bonus",
-        bonus,
-        "a finite number >= 0",
-    )
-    _check(
-        bonus == 0.0 or cfg.decisions == "goals",
-        "discovery_bonus",
-        bonus,
-        "0 unless decisions is goals",
-    )
-    until = cfg.discovery_until
-    _check(_is_number(until) and 0.0 < until <= 1.0, "discovery_until", until, "a number in (0, 1]")
-    _check(
-        until == 1.0 or cfg.decisions == "goals",
-        "discovery_until",
-        until,
-        "1 unless decisions is goals",
-    )
+    bonus, until = cfg.discovery_bonus, cfg.discovery_until
+    if cfg.decisions == "goals":
+        from agents.goal_env import check_discovery  # (seconds to import: goals only)
+
+        try:
+            check_discovery(bonus, until)
+        except ValueError as exc:
+            raise ConfigError(str(exc)) from None
+    else:
+        expected = "0 unless decisions is goals"
+        _check(_is_number(bonus) and bonus == 0.0, "discovery_bonus", bonus, expected)
+        expected = "1 unless decisions is goals"
+        _check(_is_number(until) and until == 1.0, "discovery_until", until, expected)
     _check(isinstance(cfg.env_options, dict), "env_options", cfg.env_options, "a mapping")
     _check(
         cfg.max_episode_steps is None
