@@ -84,7 +84,6 @@ def train_goal_choice(cfg: TrainConfig) -> Path:
         cfg.discovery_bonus,
         cfg.discovery_until,
     )
-    dataclasses.replace(factory, torch_threads=1)().close()  # bad bonus or share: fails here
     if cfg.vectorization == "subproc":
         vec_cls, vec_kwargs = SubprocVecEnv, {"start_method": cfg.start_method}
     else:

@@ -274,6 +274,35 @@ def test_training_smoke_run_then_the_policy_runs_on_every_setting_of_the_suite(t
         env.close()
 
 
+def test_goal_training_keeps_the_learners_torch_threads(tmp_path):
+    import torch
+
+    before = torch.get_num_threads()
+    try:
+        train(
+            {
+                "decisions": "goals",
+                "total_timesteps": 16,
+                "n_envs": 1,
+                "vectorization": "subproc",
+                "start_method": "fork",
+                "torch_threads": 2,
+                "env_options": INFORMATION_ONLY,
+                "worlds": {"arena_sizes": [8.0], "landmark_counts": [4]},
+                "max_episode_steps": 20,
+                "progress_bar": False,
+                "tensorboard": False,
+                "checkpoint_freq": 0,
+                "eval_freq": 0,
+                "out_dir": str(tmp_path),
+                "ppo": {"n_steps": 16, "batch_size": 16, "n_epochs": 1, "net_arch": [8]},
+            }
+        )
+        assert torch.get_num_threads() == 2  # the workers' envs set theirs, not the learner's
+    finally:
+        torch.set_num_threads(before)
+
+
 def test_loading_refuses_what_is_not_a_goal_policy(tmp_path):
     env = make_env({}, 10)
     with pytest.raises(ValueError, match="not a goal-choosing policy"):
