@@ -50,7 +50,7 @@ import math
 
 import numpy as np
 
-from slam_env.kernels import kernel
+from slam_env.kernels import borrowing_kernel
 from slam_env.kernels.ekf_codes import (
     ASSOCIATION,
     BAD_ID,
@@ -91,7 +91,7 @@ from slam_env.kernels.ekf_correction import (
 from slam_env.kernels.models import ODOMETRY, motion_predict
 
 
-@kernel
+@borrowing_kernel
 def update_workspace_size(dmax: int, max_obs: int) -> int:
     """Entries of the float64 workspace :func:`update` needs for states of ``dmax``
     rows and up to ``max_obs`` observations per world (``z.shape[1]``)."""
@@ -99,7 +99,7 @@ def update_workspace_size(dmax: int, max_obs: int) -> int:
     return dmax * (2 * r + 4) + N_SMALL * r * r + 2 * r + 13 * max_obs
 
 
-@kernel
+@borrowing_kernel
 def largest_count(counts: np.ndarray, mask: np.ndarray, D: int) -> int:
     """The most observations one world of ``mask`` has (counts clipped to [0, D]): what
     a call's workspaces must hold."""
@@ -113,7 +113,7 @@ def largest_count(counts: np.ndarray, mask: np.ndarray, D: int) -> int:
 # --------------------------------------------------------------------------- prediction
 
 
-@kernel
+@borrowing_kernel
 def _predict_world(
     x: np.ndarray,
     P: np.ndarray,
@@ -202,7 +202,7 @@ def _predict_world(
     return OK
 
 
-@kernel
+@borrowing_kernel
 def predict(
     x: np.ndarray,
     P: np.ndarray,
@@ -236,7 +236,7 @@ def predict(
 # --------------------------------------------------------------------------- update
 
 
-@kernel
+@borrowing_kernel
 def _check_observations(z: np.ndarray, ids: np.ndarray, k: int, n_ids: int, lowest: int) -> int:
     """BAD_INPUT for a non-finite measurement, BAD_ID / DUPLICATE_ID for the IDs
     (``lowest``: the lowest ID allowed, TENTATIVE_ID where the filter associates)."""
@@ -252,7 +252,7 @@ def _check_observations(z: np.ndarray, ids: np.ndarray, k: int, n_ids: int, lowe
     return OK
 
 
-@kernel
+@borrowing_kernel
 def update(
     x: np.ndarray,
     P: np.ndarray,

@@ -14,7 +14,7 @@ import math
 
 import numpy as np
 
-from slam_env.kernels import inline_kernel, kernel
+from slam_env.kernels import borrowing_kernel, inline_kernel
 from slam_env.kernels.ekf_codes import (
     CORRECTED,
     COV_LIMIT,
@@ -49,7 +49,7 @@ SMALL_S, SMALL_SK, SMALL_L, SMALL_LI, SMALL_G, SMALL_E, SMALL_EL, SMALL_W, SMALL
 N_SMALL = 10
 
 
-@kernel
+@borrowing_kernel
 def all_finite(a: np.ndarray, count: int) -> bool:
     """Whether ``a[:count]`` is all finite (a count of the finite entries: an integer
     sum, which the compiler vectorises where a float test in the loop it would not)."""
@@ -82,7 +82,7 @@ def all_finite(a: np.ndarray, count: int) -> bool:
 # I − Wᵀ W (then V), Vᵀ L⁻¹. ``vec`` (2, 2D): ν and G ν.
 
 
-@kernel
+@borrowing_kernel
 def add_observation(
     model: int,
     xw: np.ndarray,
@@ -158,7 +158,7 @@ def add_observation(
     return OK
 
 
-@kernel
+@borrowing_kernel
 def _joseph_factor(small: np.ndarray, m: int) -> bool:
     """From S + Q in ``small[SMALL_SK]`` (m×m): G = S⁻¹ in ``small[SMALL_G]`` and the factor
     Vᵀ L⁻¹ in ``small[SMALL_F]`` (S = L Lᵀ, E = I − S G, W = L⁻¹ E L, V Vᵀ = I − Wᵀ W),
@@ -223,7 +223,7 @@ def _joseph_factor(small: np.ndarray, m: int) -> bool:
     return True
 
 
-@kernel
+@borrowing_kernel
 def correct_group(
     xw: np.ndarray,
     d: int,
@@ -346,7 +346,7 @@ def correct_group(
     return mm, rejected, OK
 
 
-@kernel
+@borrowing_kernel
 def new_landmarks(
     xw: np.ndarray,
     P: np.ndarray,
@@ -448,7 +448,7 @@ def new_landmarks(
     return new, OK
 
 
-@kernel
+@borrowing_kernel
 def factor_check(U: np.ndarray, r: int, d: int, norms: np.ndarray) -> int:
     """OK where every (Uᵀ U)ᵢᵢ = Σ_ρ U[ρ, i]² (into ``norms``) is finite and at most
     COV_LIMIT: then, by Cauchy–Schwarz, so is every entry of Uᵀ U, and P − Uᵀ U
@@ -534,7 +534,7 @@ def _mirror_rows(P: np.ndarray, g: int, d: int) -> None:
         j += 1
 
 
-@kernel
+@borrowing_kernel
 def apply_factors(P: np.ndarray, U: np.ndarray, r: int, d: int) -> None:
     """P ← P − Uᵀ U on the live block, entry by entry as ((P − u₀u₀) − u₁u₁) − …
     One pass over P however many corrections the update made (r is even).
@@ -559,7 +559,7 @@ def apply_factors(P: np.ndarray, U: np.ndarray, r: int, d: int) -> None:
             row[j] = v
 
 
-@kernel
+@borrowing_kernel
 def commit_new_landmarks(
     x: np.ndarray,
     P: np.ndarray,
