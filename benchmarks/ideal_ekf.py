@@ -147,8 +147,7 @@ class IdealEKF:
         ``h`` cannot be linearised at (range-bearing: on the robot's) is rejected, as
         one that fails the gate. Returns an :class:`~slam_env.ekf.UpdateResult`
         (``nearest`` all NaN)."""
-        zb, idb = checks.observations(z, ids)
-        z, ids = zb[0], idb[0]
+        z, ids = checks.observations(z, ids)
         if (
             not np.isfinite(z).all()
             or ((ids < 0) | (ids >= self.max_landmarks)).any()

@@ -159,9 +159,9 @@ def bad_control(u: np.ndarray) -> ValueError:
 
 
 def observations(z: Any, ids: Any) -> tuple[np.ndarray, np.ndarray]:
-    """z as a float64 (1, k, 2) array (a batch of one; a view of z where z is a
-    C-contiguous, writable float64 array already, else a copy) and the IDs as a fresh
-    int64 (1, k) array (all -1 for ``None``). Both are C-contiguous and writable
+    """z as a float64 (k, 2) array (z itself where it is a C-contiguous, writable
+    float64 array already, else a copy) and the IDs as a fresh int64 (k,) array (all
+    -1 for ``None``). Both are C-contiguous and writable
     whatever the caller passed, so that they are always of one numba type (the
     filter's kernels are pinned to it). Their values (finite, IDs in range and
     distinct) are checked by the kernel before it changes anything;
@@ -173,22 +173,23 @@ def observations(z: Any, ids: Any) -> tuple[np.ndarray, np.ndarray]:
         raise ValueError(f"z must have shape (k, 2), got {shape}")
     k = shape[0]
     flags = z.flags
-    zb = z[None] if flags.c_contiguous and flags.writeable else z[None].copy()
+    if not (flags.c_contiguous and flags.writeable):
+        z = z.copy()
     if ids is None:  # observations without IDs
-        return zb, np.full((1, k), -1, dtype=_INT64)
+        return z, np.full(k, -1, dtype=_INT64)
     if type(ids) is not np.ndarray:
         ids = np.asarray(ids)
     if ids.shape != (k,):
         raise ValueError(f"ids must have shape ({k},) to match z {shape}, got {ids.shape}")
     if ids.dtype is _INT64:
-        return zb, ids.copy()[None]
+        return z, ids.copy()
     kind = ids.dtype.kind
     if kind != "i":
         if kind != "u" and k:
             raise TypeError(f"ids must be integers, got dtype {ids.dtype}")
         if kind == "u" and k and int(ids.max()) > np.iinfo(np.int64).max:
             raise ValueError(f"landmark id {int(ids.max())} is beyond the int64 range")
-    return zb, np.array(ids, dtype=_INT64, ndmin=2)
+    return z, np.array(ids, dtype=_INT64)
 
 
 def bad_observations(z: np.ndarray, ids: np.ndarray, max_landmarks: int) -> ValueError:

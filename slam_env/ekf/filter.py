@@ -381,20 +381,22 @@ class EKFSLAM:
         )
         # Pinned to the types of the per-call arrays too: z and the IDs as
         # checks.observations returns them, the outputs as update allocates them.
-        zb, idb = checks.observations(np.empty((0, 2)), np.empty(0, dtype=np.int64))
-        status, nis = np.empty((1, 0), dtype=np.int8), np.empty((1, 0))
+        z, ids = checks.observations(np.empty((0, 2)), np.empty(0, dtype=np.int64))
+        status, nis = np.empty(0, dtype=np.int8), np.empty(0)
         state = (
             self._xb, self._Pb, self._nb, self._id_to_slot_b, self._slot_to_id_b,
             self._n_rejected_b, self._firstb, self._params, self._modes,
         )  # fmt: skip
         io = (self._count, self._mask, self._error, work)
-        compiled = pin(ekf.update, *state, zb, idb, *io[:2], status, nis, *io[2:])
+        compiled = pin(ekf.update_one, *state, z, ids, *io[:2], status, nis, *io[2:])
         self._update_call = partial(compiled, *state), io
         if self._associates:
             self._joint_gates = joint_gates(self._association_gates[0], max_obs)
             belief = (self._xb, self._Pb, self._nb, self._params, self._modes, self._joint_gates)
             held = (self._tentativeb, self._held, fwork, iwork)
-            compiled = pin(association.associate, *belief, zb, *io[:2], idb, nis, *held)
+            # A batch of one: (1, k, 2) observations, (1, k) IDs and distances.
+            batched = (z[None], *io[:2], ids[None], nis[None])
+            compiled = pin(association.associate, *belief, *batched, *held)
             self._associate_call = partial(compiled, *belief), held
 
     @staticmethod
@@ -687,40 +689,36 @@ class EKFSLAM:
         associates = self._associates
         if ids is None and not associates:
             raise TypeError("ids are required with data_association='known'")
-        zb, idb = checks.observations(z, ids)
-        if associates and (idb != -1).any():
+        zk, idk = checks.observations(z, ids)
+        if associates and (idk != -1).any():
             raise ValueError(
                 f"data_association={self._association!r} chooses the landmarks itself: "
-                f"ids must be None or all -1, got {idb[0].tolist()}"
+                f"ids must be None or all -1, got {idk.tolist()}"
             )
-        k = idb.shape[1]
+        k = idk.shape[0]
         if k > self._max_obs:
             self._grow_workspace(k)
-        status = np.empty((1, k), _INT8)
-        nis = np.empty((1, k))
+        status = np.empty(k, _INT8)
+        nis = np.empty(k)
+        nearest = np.empty(k)
         update, (count, mask, error, work) = self._update_call
-        count[0] = k
         # The same steps as kernels.correction.correct, called one by one: through that
         # kernel's tuples a step of this filter costs about 10% more (measured at N = 20).
         if associates:
-            if not np.isfinite(zb).all():
-                raise checks.bad_observations(zb[0], np.zeros(k, dtype=np.int64), self._N)
-            nearest = np.empty((1, k))
+            if not np.isfinite(zk).all():
+                raise checks.bad_observations(zk, np.zeros(k, dtype=np.int64), self._N)
+            count[0] = k
             associate, held = self._associate_call
-            if not associate(zb, count, mask, idb, nearest, *held):
+            if not associate(zk[None], count, mask, idk[None], nearest[None], *held):
                 raise RuntimeError("the association's workspace is too small")  # a bug here
-            nearest = nearest.ravel()
         else:
-            nearest = np.empty(k)
             nearest.fill(np.nan)
-        update(zb, idb, count, mask, status, nis, error, work)
+        update(zk, idk, count, mask, status, nis, error, work)
         if error[0]:
-            self._raise(
-                int(error[0]), "update", lambda: checks.bad_observations(zb[0], idb[0], self._N)
-            )
+            self._raise(int(error[0]), "update", lambda: checks.bad_observations(zk, idk, self._N))
         if associates:
             self._tentativeb[...] = self._held  # kept only once the update has succeeded
-        return update_result(idb.ravel(), status.ravel(), nis.ravel(), nearest)
+        return update_result(idk, status, nis, nearest)
 
     @staticmethod
     def _raise(code: int, call: str, bad_input: Any) -> None:

@@ -410,3 +410,36 @@ def update(
         n[b] += new
         n_rejected[b] += rejected
     return True
+
+
+@borrowing_kernel
+def update_one(
+    x: np.ndarray,
+    P: np.ndarray,
+    n: np.ndarray,
+    id_to_slot: np.ndarray,
+    slot_to_id: np.ndarray,
+    n_rejected: np.ndarray,
+    first: np.ndarray,
+    params: np.ndarray,
+    modes: np.ndarray,
+    z: np.ndarray,
+    ids: np.ndarray,
+    counts: np.ndarray,
+    mask: np.ndarray,
+    status: np.ndarray,
+    nis: np.ndarray,
+    error: np.ndarray,
+    work: np.ndarray,
+) -> bool:
+    """:func:`update` of a batch of one (the state arrays as there, B = 1) with its k
+    observations unbatched: ``z`` (k, 2), ``ids``, ``status`` and ``nis`` (k,);
+    ``counts[0]`` is set to k. What :class:`~slam_env.ekf.EKFSLAM` calls: the views of
+    a batch of one are taken here, where they cost nothing, not in Python."""
+    k = z.shape[0]
+    counts[0] = k
+    return update(
+        x, P, n, id_to_slot, slot_to_id, n_rejected, first, params, modes,
+        z.reshape((1, k, 2)), ids.reshape((1, k)), counts, mask,
+        status.reshape((1, k)), nis.reshape((1, k)), error, work,
+    )  # fmt: skip

@@ -44,13 +44,13 @@ def odd_observations() -> list[tuple[str, object, object]]:
 @pytest.mark.parametrize(("case", "z", "ids"), odd_observations(), ids=lambda c: str(c))
 def test_observations_are_always_of_the_one_pinned_type(case, z, ids):
     reference = checks.observations(np.empty((0, 2)), np.empty(0, dtype=np.int64))
-    zb, idb = checks.observations(z, ids)
-    assert [numba.typeof(a) for a in (zb, idb)] == [numba.typeof(a) for a in reference]
-    np.testing.assert_array_equal(zb[0], np.asarray(z, dtype=np.float64).reshape(-1, 2))
-    expected = np.full(zb.shape[1], -1) if ids is None else np.asarray(ids)
-    np.testing.assert_array_equal(idb[0], expected)
+    zk, idk = checks.observations(z, ids)
+    assert [numba.typeof(a) for a in (zk, idk)] == [numba.typeof(a) for a in reference]
+    np.testing.assert_array_equal(zk, np.asarray(z, dtype=np.float64).reshape(-1, 2))
+    expected = np.full(zk.shape[0], -1) if ids is None else np.asarray(ids)
+    np.testing.assert_array_equal(idk, expected)
     if ids is not None and isinstance(ids, np.ndarray):
-        assert not np.shares_memory(idb, ids)  # the filter writes it and returns it
+        assert not np.shares_memory(idk, ids)  # the filter writes it and returns it
 
 
 # 14 landmarks on a grid; an update of 12 at once outgrows the workspaces' first room (8).
