@@ -1,0 +1,54 @@
+"""Kernels compiled without numba's reference counting (``borrowing_kernel``): the
+EKF's step runs that way, and a kernel that would allocate cannot be declared so."""
+
+from __future__ import annotations
+
+import numba
+import numpy as np
+import pytest
+
+from slam_env.kernels import borrowing_kernel, ekf, ekf_correction
+
+EKF_STEP = (
+    ekf.predict,
+    ekf.update,
+    ekf.update_one,
+    ekf_correction.add_observation,
+    ekf_correction.correct_group,
+    ekf_correction.new_landmarks,
+    ekf_correction.apply_factors,
+    ekf_correction.commit_new_landmarks,
+)
+
+
+@pytest.mark.parametrize("dispatcher", EKF_STEP, ids=lambda d: d.__name__)
+def test_the_ekf_step_is_compiled_without_reference_counting(dispatcher) -> None:
+    # With counting, each array a call is passed costs an atomic increment and
+    # decrement: a quarter of EKFSLAM's step at N = 20 (README, filter step).
+    assert dispatcher.targetoptions.get("_nrt") is False
+
+
+@borrowing_kernel
+def _allocates(n: int) -> float:
+    return np.empty(n).sum()
+
+
+def test_a_borrowing_kernel_that_allocates_is_refused_when_compiled() -> None:
+    with pytest.raises(numba.core.errors.TypingError, match="empty"):
+        _allocates(3)
+
+
+@borrowing_kernel
+def _halve_rows(a: np.ndarray, rows: int) -> None:
+    for i in range(rows):
+        row = a[i]  # a view of the caller's array, not counted
+        for j in range(row.shape[0]):
+            row[j] *= 0.5
+
+
+def test_a_borrowing_kernel_writes_through_views_of_the_callers_arrays() -> None:
+    a = np.arange(12.0).reshape(3, 4)
+    _halve_rows(a, 2)
+    np.testing.assert_array_equal(
+        a, np.concatenate([np.arange(8.0) / 2, np.arange(8.0, 12)]).reshape(3, 4)
+    )
