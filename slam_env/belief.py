@@ -177,6 +177,7 @@ class EgocentricEncoding:
         self.params = EgocentricParams(
             np.array(scales, dtype=np.float64), low.astype(np.float64), high.astype(np.float64)
         )
+        self._features = np.zeros(self.size)  # the kernel's scratch: one world's features
 
     def encode_batch(
         self,
@@ -190,7 +191,7 @@ class EgocentricEncoding:
         float32 gets the features, then ``tail`` (B, T) float32 as it is (the raw
         proximity readings, already inside their own bounds); ``clipped`` (B,) bool."""
         active = np.ones(belief.x.shape[0], dtype=np.bool_) if active is None else active
-        encode_egocentric(*belief, *self.params, tail, out, clipped, active)
+        encode_egocentric(*belief, *self.params, tail, out, clipped, active, self._features)
 
     def encode(
         self,

@@ -200,7 +200,7 @@ class CoverageGrid:
 
     # Views and scratch buffers: rebuilt on unpickling, never pickled (a view
     # would come back as a copy, detached from the padded grid).
-    _TRANSIENT = ("_flat", "_read_only", "_pose", "new_cells", "_all", "_out")
+    _TRANSIENT = ("_flat", "_read_only", "_pose", "new_cells", "_all", "_out", "_counts")
 
     def _setup_scratch(self) -> None:
         worlds = self._padded.shape[0]
@@ -211,6 +211,7 @@ class CoverageGrid:
         self.new_cells = np.empty(worlds, dtype=np.int64)
         self._all = np.ones(worlds, dtype=np.bool_)
         self._out = np.empty((worlds, 1 + self.n_features))  # [swept fraction, features...]
+        self._counts = np.empty(2 * self.n_features, dtype=np.int64)  # the kernel's scratch
 
     def __getstate__(self) -> dict[str, Any]:
         return {k: v for k, v in self.__dict__.items() if k not in self._TRANSIENT}
@@ -311,10 +312,10 @@ class CoverageGrid:
     @property
     def kernel_args(self) -> tuple[Any, ...]:
         """The :class:`CoverageTables` fields, then ``(swept, n_swept, held,
-        class_counts, new_cells, features)``: the grid as
+        class_counts, new_cells, features, counts)``: the grid as
         :func:`slam_env.kernels.active_step.belief_outputs` takes it (``features`` what
-        :meth:`step_all` returns)."""
-        return (*self._state, self.new_cells, self._out)
+        :meth:`step_all` returns, ``counts`` scratch)."""
+        return (*self._state, self.new_cells, self._out, self._counts)
 
     @property
     def _state(self) -> tuple[Any, ...]:
@@ -324,7 +325,7 @@ class CoverageGrid:
 
     def _step(self, poses: np.ndarray, sweep: bool, active: np.ndarray | None = None) -> np.ndarray:
         active = self._all if active is None else active
-        coverage_step(*self._state, poses, sweep, self.new_cells, self._out, active)
+        coverage_step(*self._state, poses, sweep, self.new_cells, self._out, self._counts, active)
         return self._out
 
 

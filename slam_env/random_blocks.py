@@ -35,7 +35,8 @@ def take_rows(blocks: np.ndarray, cursor: np.ndarray, active: np.ndarray, out: n
     for b in range(blocks.shape[0]):
         if active[b]:
             row = cursor[b]
-            out[b, :] = blocks[b, row, :]
+            for k in range(out.shape[1]):  # a loop: numba's slice copy may allocate
+                out[b, k] = blocks[b, row, k]
             cursor[b] = row + 1
 
 

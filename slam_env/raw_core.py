@@ -24,7 +24,7 @@ from slam_env.kernels.observe import RawOutputs, RawParams
 from slam_env.kernels.odometry import odometry_uniforms
 from slam_env.kernels.pinning import pin
 from slam_env.kernels.raw_step import raw_step
-from slam_env.kernels.sensing import SensorParams, scan_uniforms
+from slam_env.kernels.sensing import SensorParams, scan_uniforms, sensing_scratch
 from slam_env.layouts import Layout
 from slam_env.random_blocks import RandomBlocks
 from slam_env.world_batch import WorldBatch
@@ -326,6 +326,11 @@ class RawCore(BatchCore):
                 self._params_fields,
                 self._out_fields,
                 self._stepping,
+                sensing_scratch(
+                    worlds.landmarks.shape[1],
+                    worlds.geometry.tree.shape[1],
+                    self._beam_angles.shape[0],
+                ),
             )
             call = self._step_call = (pin(raw_step, *args, read, sense), args)
         compiled, args = call

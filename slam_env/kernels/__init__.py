@@ -150,8 +150,11 @@ def borrowing_kernel(fn: F) -> F:
     the caller passed, and the caller keeps it alive for the call. With counting, each
     array a compiled function is passed, and each view it keeps across blocks, costs an
     atomic increment and decrement (about 6 ns each): some 380 of them in one EKF step
-    of 5 corrections, a quarter of its time at N = 20. A kernel that allocates cannot
-    be compiled this way (numba refuses it when it compiles)."""
+    of 5 corrections, a quarter of its time at N = 20. And each array a call from Python
+    passes is wrapped for the counting (about 80 ns: 3.4 µs of the 43 arrays of
+    :func:`~slam_env.kernels.raw_step.raw_step`'s call). A kernel that allocates cannot
+    be compiled this way (numba refuses it when it compiles): its scratch comes from the
+    caller."""
     return _compile(fn, _nrt=False)
 
 

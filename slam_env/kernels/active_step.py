@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from slam_env.kernels import kernel
+from slam_env.kernels import borrowing_kernel
 from slam_env.kernels.association_score import score_association
 from slam_env.kernels.correction import correct, workspaces_fit
 from slam_env.kernels.coverage import coverage_step
@@ -20,7 +20,7 @@ from slam_env.kernels.observe import filter_inputs
 from slam_env.kernels.reward import active_slam_reward
 
 
-@kernel
+@borrowing_kernel
 def filter_step(
     raw: tuple,
     known: bool,
@@ -84,7 +84,7 @@ def filter_step(
     return True
 
 
-@kernel
+@borrowing_kernel
 def belief_outputs(
     belief: tuple,
     truth: tuple,
@@ -111,7 +111,7 @@ def belief_outputs(
     float32 readings copied to the start of ``tail``, in order (an empty (B, 0) array
     for a sensor the env lacks); ``coverage``: the
     :class:`~slam_env.kernels.coverage.CoverageTables` fields then ``(swept, n_swept,
-    held, class_counts, new_cells, features)``, whose features (the swept fraction
+    held, class_counts, new_cells, features, counts)``, whose features (the swept fraction
     first) go after the readings (None: no memory, a swept fraction of 0); ``reward``:
     ``(weights, collided, last, terms, rewards)`` of
     :func:`~slam_env.kernels.reward.active_slam_reward`. Returns how many worlds'
@@ -132,11 +132,11 @@ def belief_outputs(
     if coverage is not None:
         (
             cell, bins, pad, footprints, sizes, codes, classes, footprint_classes, swept,
-            n_swept, held, class_counts, new_cells, features,
+            n_swept, held, class_counts, new_cells, features, counts,
         ) = coverage  # fmt: skip
         coverage_step(
             cell, bins, pad, footprints, sizes, codes, classes, footprint_classes, swept,
-            n_swept, held, class_counts, x, True, new_cells, features, touched,
+            n_swept, held, class_counts, x, True, new_cells, features, counts, touched,
         )  # fmt: skip
         for b in range(x.shape[0]):
             if touched[b]:
@@ -152,7 +152,7 @@ def belief_outputs(
     return left
 
 
-@kernel
+@borrowing_kernel
 def step_reward(
     reward: tuple,
     entropy: np.ndarray,

@@ -84,5 +84,7 @@ def correct(
     if associates:  # a sighting is kept only once its update has succeeded
         for b in range(x.shape[0]):
             if mask[b] and error[b] == 0:
-                tentative[b, :, :] = held[b]
+                for t in range(held.shape[1]):  # loops: numba's slice copy may allocate
+                    for c in range(held.shape[2]):
+                        tentative[b, t, c] = held[b, t, c]
     return True

@@ -210,6 +210,7 @@ def coverage_step(
     sweep: bool,
     new_cells: np.ndarray,
     features: np.ndarray,
+    counts: np.ndarray,
     active: np.ndarray,
 ) -> None:
     """One step of B worlds' coverage (the :class:`CoverageTables` first, then the
@@ -222,11 +223,10 @@ def coverage_step(
     ``class_counts[b]`` ((B, 2, rings, fine + 1) int64; (B, 2, rings, 0) for a grid
     without ``classes``) holds world b's class counts (:func:`_count_classes`) around
     the cell ``held[b]`` ((B,) int64, row·nx + column; −1: none, to be counted afresh,
-    as after a reset or an edit of ``swept[b]``)."""
+    as after a reset or an edit of ``swept[b]``). ``counts``: (2·F,) int64 scratch."""
     nx = (codes.shape[2] + 1) // 2
     size = nx * ((codes.shape[1] + 1) // 2)
     scanning = class_counts.shape[3] == 0
-    counts = np.empty(2 * (features.shape[1] - 1), dtype=np.int64)
     for b in range(poses.shape[0]):
         if not active[b]:
             continue

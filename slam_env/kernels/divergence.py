@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from slam_env.kernels import kernel
+from slam_env.kernels import borrowing_kernel, kernel
 
 # slam_env.ekf.Status codes (the kernels' own).
 CORRECTED, REJECTED = 0, 2
@@ -31,7 +31,7 @@ def count_rejections(
         in_a_row[b] = run
 
 
-@kernel
+@borrowing_kernel
 def diverged(
     clipped: np.ndarray,
     failed: np.ndarray,

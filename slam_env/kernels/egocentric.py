@@ -8,7 +8,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from slam_env.kernels import kernel
+from slam_env.kernels import borrowing_kernel, kernel
 
 
 class EgocentricParams(NamedTuple):
@@ -27,7 +27,7 @@ def _std_feature(variance: float, scale: float) -> float:
     return math.tanh(math.sqrt(0.0 if variance < 0.0 else variance) / scale)
 
 
-@kernel
+@borrowing_kernel
 def encode_egocentric(
     x: np.ndarray,
     P: np.ndarray,
@@ -40,6 +40,7 @@ def encode_egocentric(
     out: np.ndarray,
     clipped: np.ndarray,
     active: np.ndarray,
+    feat: np.ndarray,
 ) -> None:
     """World b's features into ``out[b, :F]`` (float32), then ``tail[b]`` ((B, T)
     float32, the raw proximity readings, already inside their bounds) as it is.
@@ -47,10 +48,10 @@ def encode_egocentric(
 
     A belief that leaves the bounds, or holds a NaN or an infinity, has diverged: its
     features are clipped onto the bounds (NaN read as 0) and ``clipped[b]`` is True.
+    ``feat``: (F,) float64 scratch.
     """
     width, height, max_range, position_scale, heading_scale = scales
     size = low.shape[0]
-    feat = np.zeros(size)
     for b in range(x.shape[0]):
         if not active[b]:
             continue

@@ -8,7 +8,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from slam_env.kernels import kernel
+from slam_env.kernels import borrowing_kernel, kernel
 
 
 class FullBelief(NamedTuple):
@@ -36,7 +36,7 @@ def _clip(v: float, bound: float) -> float:
     return 0.0 if math.isnan(v) else min(max(v, -bound), bound)
 
 
-@kernel
+@borrowing_kernel
 def encode_full(
     x: np.ndarray,
     P: np.ndarray,

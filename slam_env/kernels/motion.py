@@ -20,7 +20,7 @@ import math
 
 import numpy as np
 
-from slam_env.kernels import inline_kernel, kernel
+from slam_env.kernels import borrowing_kernel, inline_kernel
 from slam_env.kernels.clearance import clearance
 from slam_env.kernels.geometry import StaticGeometry
 
@@ -52,7 +52,7 @@ def move_count(speed: float, dt: float, radius: float, substeps: int) -> float:
     return substeps if moves <= substeps else moves
 
 
-@kernel
+@borrowing_kernel
 def drive(
     poses: np.ndarray,
     disks: np.ndarray,

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from slam_env.kernels import kernel
+from slam_env.kernels import borrowing_kernel
 from slam_env.kernels.faults import corrupt_odometry, corrupt_scans
 from slam_env.kernels.observe import observe_raw
 from slam_env.kernels.odometry import read_odometry
@@ -19,7 +19,7 @@ from slam_env.kernels.sensing import proximity_scan, sense_landmarks
 from slam_env.random_blocks import take_rows, used_up_rows
 
 
-@kernel
+@borrowing_kernel
 def raw_step(
     random_blocks: tuple,
     odometry: tuple,
@@ -37,6 +37,7 @@ def raw_step(
     params_fields: tuple,
     out_fields: tuple,
     stepping: np.ndarray,
+    scratch: tuple,
     read: bool,
     sense: bool,
 ) -> int:
@@ -73,11 +74,12 @@ def raw_step(
         sense_and_observe(
             worlds, geometry_fields, sensor_fields, uniforms, scan_offset, touched, detections,
             faults, stepping, beams, (control, collided), seen, params_fields, out_fields,
+            scratch,
         )  # fmt: skip
     return 0
 
 
-@kernel
+@borrowing_kernel
 def sense_and_observe(
     worlds: tuple,
     geometry_fields: tuple,
@@ -93,6 +95,7 @@ def sense_and_observe(
     seen: np.ndarray,
     params_fields: tuple,
     out_fields: tuple,
+    scratch: tuple,
 ) -> None:
     """Sense and observe each ``touched`` world.
 
@@ -103,20 +106,21 @@ def sense_and_observe(
     ``uniforms``, applied to the scans of the ``stepping`` worlds; ``beams``:
     ``(beam_angles, reach, scan)`` of :func:`~slam_env.kernels.sensing.proximity_scan`
     (no angles: no scan); ``readings``: ``(control, collided)``, the odometry reading
-    and the contact flag the observation reports."""
+    and the contact flag the observation reports; ``scratch``: the sensing's
+    workspaces (:func:`~slam_env.kernels.sensing.sensing_scratch`)."""
     poses, landmarks, landmark_ids, id_order = worlds
     z, ids, rows, count = detections
     beam_angles, reach, scan = beams
     control, collided = readings
     sense_landmarks(
         poses, landmarks, landmark_ids, id_order, geometry_fields, sensor_fields, uniforms,
-        scan_offset, touched, z, ids, rows, count,
+        scan_offset, touched, z, ids, rows, count, scratch,
     )  # fmt: skip
     if faults is not None:
         fault_fields, fault_offset = faults
         corrupt_scans(fault_fields, seen, uniforms, fault_offset, stepping, z, ids, rows, count)
     if beam_angles.shape[0]:
-        proximity_scan(poses, geometry_fields, beam_angles, reach, touched, scan)
+        proximity_scan(poses, geometry_fields, beam_angles, reach, touched, scan, scratch)
     observe_raw(
         control, z, ids, count, collided, landmark_ids, params_fields, touched, seen, out_fields
     )

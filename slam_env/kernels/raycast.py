@@ -174,12 +174,14 @@ def segment_fractions(
     count: int,
     segments: np.ndarray,
     out: np.ndarray,
+    depths: np.ndarray,
 ) -> None:
     """``out[q]``: the fraction in [0, 1] of ``segments[q]`` (``[ax, ay, bx, by]``)
     before the first shape of world ``b`` that it hits, 1.0 when clear:
     ``segment_query_first(a, b, 0.0, filter).alpha`` (1.0 for None) for a filter that
     passes every static shape. Tries the first ``count`` ``leaves`` (as
-    :func:`sight_lines` does)."""
+    :func:`sight_lines` does); ``depths``: scratch as long as ``leaves`` for the tree
+    search (:func:`_tree_fraction`)."""
     g = geometry
     boxes, tree = g.tree_boxes, g.tree
     for q in range(segments.shape[0]):
@@ -197,7 +199,7 @@ def segment_fractions(
         if best == 1.0 or best_entry < runner_up:
             out[q] = best
         else:
-            out[q] = _tree_fraction(g, b, ax, ay, bx, by)
+            out[q] = _tree_fraction(g, b, ax, ay, bx, by, depths)
 
 
 @kernel
@@ -229,18 +231,26 @@ def ray_fraction(
     leaves = np.empty(geometry.tree.shape[1], dtype=np.int64)
     count = all_leaves(geometry, b, leaves)
     out = np.empty(1)
-    segment_fractions(geometry, b, leaves, count, np.array([[ax, ay, bx, by]]), out)
+    depths = np.empty_like(leaves)
+    segment_fractions(geometry, b, leaves, count, np.array([[ax, ay, bx, by]]), out, depths)
     return out[0]
 
 
 # Tree levels whose child still to search is kept in the bits of an int64; deeper ones
-# (only long rows of shapes make them) go to an array allocated when first needed.
+# (only long rows of shapes make them) go to the caller's scratch, cleared when first
+# needed.
 _BIT_LEVELS = 63
 
 
 @kernel
 def _tree_fraction(
-    geometry: StaticGeometry, b: int, ax: float, ay: float, bx: float, by: float
+    geometry: StaticGeometry,
+    b: int,
+    ax: float,
+    ay: float,
+    bx: float,
+    by: float,
+    deep: np.ndarray,
 ) -> float:
     """:func:`ray_fraction` by searching world ``b``'s tree exactly as pymunk 7.3 does.
 
@@ -249,7 +259,8 @@ def _tree_fraction(
     per depth on the current path, which child (if any) is still to be searched, and
     when a subtree is done climbs to the deepest depth with one: the same order
     without a stack (numba cannot cache a recursive function, and allocating a stack
-    per query would cost more than the search)."""
+    per query would cost more than the search). ``deep``: (tree width,) int64 scratch
+    for the depths beyond the bits."""
     g = geometry
     tree, boxes = g.tree, g.tree_boxes
     if g.counts[b, N_SEGMENTS] + g.counts[b, N_POLYGONS] + g.counts[b, N_CIRCLES] == 0:
@@ -259,7 +270,7 @@ def _tree_fraction(
     depth = 0
     pending_a = 0  # bit d: the node at depth d on the path has child_a still to search
     pending_b = 0  # ... or child_b
-    deep = g.counts[b, :0]  # the same for depths ≥ _BIT_LEVELS: 0, 1 (child_a), 2 (child_b)
+    deep_used = False  # deep[d]: the same for depths ≥ _BIT_LEVELS: 0, 1 (a), 2 (b)
     while True:
         shape = tree[b, node, 2]
         if shape < 0:
@@ -279,8 +290,9 @@ def _tree_fraction(
                         else:
                             pending_b |= 1 << depth
                     else:
-                        if deep.shape[0] == 0:
-                            deep = np.zeros(tree.shape[1], dtype=np.int64)
+                        if not deep_used:
+                            deep[:] = 0
+                            deep_used = True
                         deep[depth] = later_code
                 node = first
                 depth += 1
@@ -294,7 +306,7 @@ def _tree_fraction(
             if alpha < best:
                 best = alpha
         # This subtree is done: climb to the deepest node with a child still to search.
-        if pending_a == 0 and pending_b == 0 and deep.shape[0] == 0:
+        if pending_a == 0 and pending_b == 0 and not deep_used:
             return best
         while True:
             if depth == 0:
@@ -311,7 +323,7 @@ def _tree_fraction(
                     pending_b &= ~bit
                     node = tree[b, node, 1]
                     break
-            elif deep.shape[0] > 0 and deep[depth] != 0:
+            elif deep_used and deep[depth] != 0:
                 node = tree[b, node, deep[depth] - 1]
                 deep[depth] = 0
                 break
@@ -350,10 +362,11 @@ def ray_fractions(
     ``worlds`` (Q,) int64, ``segments`` (Q, 4) ``[ax, ay, bx, by]``, ``out`` (Q,)
     float64."""
     leaves = np.empty(geometry.tree.shape[1], dtype=np.int64)
+    depths = np.empty_like(leaves)
     for q in range(worlds.shape[0]):
         b = worlds[q]
         count = all_leaves(geometry, b, leaves)
-        segment_fractions(geometry, b, leaves, count, segments[q : q + 1], out[q : q + 1])
+        segment_fractions(geometry, b, leaves, count, segments[q : q + 1], out[q : q + 1], depths)
 
 
 @inline_kernel
@@ -388,6 +401,6 @@ def range_scan(
     count = near_leaves(geometry, b, x, y, max_range, leaves)
     segments = np.empty((angles.shape[0], 4))
     beam_segments(x, y, theta, angles, max_range, segments)
-    segment_fractions(geometry, b, leaves, count, segments, out)
+    segment_fractions(geometry, b, leaves, count, segments, out, np.empty_like(leaves))
     for k in range(angles.shape[0]):
         out[k] *= max_range

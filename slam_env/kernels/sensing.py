@@ -25,7 +25,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from slam_env.kernels import kernel
+from slam_env.kernels import borrowing_kernel, kernel
 from slam_env.kernels.angles import wrap
 from slam_env.kernels.geometry import StaticGeometry
 from slam_env.kernels.models import CARTESIAN, RANGE_BEARING, observe, range_bearing_observe
@@ -44,6 +44,36 @@ class SensorParams(NamedTuple):
     cartesian: bool  # z = R(θ)ᵀ(m − t) instead of [r, φ]
     std0: float  # σr (m), or σz (m) for the cartesian model
     std1: float  # σφ (rad), or σz (m)
+
+
+class SensingScratch(NamedTuple):
+    """The sensing kernels' workspaces, allocated by the caller (:func:`sensing_scratch`)
+    so that the kernels allocate nothing and can borrow their arrays (see
+    :func:`slam_env.kernels.borrowing_kernel`)."""
+
+    rows: np.ndarray  # (N,) int64: landmark rows in view
+    found: np.ndarray  # (N, 3): their range, bearing and ID rank
+    targets: np.ndarray  # (N, 2): their positions, the sight lines' ends
+    clear: np.ndarray  # (N,) bool: the sight lines not blocked
+    leaves: np.ndarray  # (tree width,) int64: the shapes near the robot
+    depths: np.ndarray  # (tree width,) int64: the tree search's (raycast._tree_fraction)
+    segments: np.ndarray  # (beams, 4): the beams as segments
+
+
+def sensing_scratch(n_landmarks: int, tree_width: int, beams: int) -> tuple:
+    """A :class:`SensingScratch`, as a plain tuple, for worlds of ``n_landmarks``
+    landmark rows, static geometry trees ``tree_width`` wide and ``beams`` beams."""
+    return tuple(
+        SensingScratch(
+            rows=np.empty(n_landmarks, dtype=np.int64),
+            found=np.empty((n_landmarks, 3)),
+            targets=np.empty((n_landmarks, 2)),
+            clear=np.empty(n_landmarks, dtype=np.bool_),
+            leaves=np.empty(tree_width, dtype=np.int64),
+            depths=np.empty(tree_width, dtype=np.int64),
+            segments=np.empty((beams, 4)),
+        )
+    )
 
 
 def scan_uniforms(n_landmarks: int, max_detections: int) -> int:
@@ -143,7 +173,7 @@ def emit_detections(
     return n
 
 
-@kernel
+@borrowing_kernel
 def sense_landmarks(
     poses: np.ndarray,
     landmarks: np.ndarray,
@@ -158,6 +188,7 @@ def sense_landmarks(
     out_ids: np.ndarray,
     out_rows: np.ndarray,
     out_count: np.ndarray,
+    scratch: tuple,
 ) -> None:
     """One scan of each active world b from ``poses[b]``.
 
@@ -173,15 +204,12 @@ def sense_landmarks(
         active: (B,) the worlds to scan; the others' outputs are left as they are.
         out_z: (B, D, 2) measurements; out_ids (B, D) IDs; out_rows (B, D) landmark
             rows; out_count (B,) detections per world, first in each row block.
+        scratch: a :class:`SensingScratch` (:func:`sensing_scratch`), a plain tuple.
     """
     geometry = StaticGeometry(*geometry_fields)
     params = SensorParams(*params_fields)
     n_rows = landmarks.shape[1]
-    rows = np.empty(n_rows, dtype=np.int64)
-    found = np.empty((n_rows, 3))
-    leaves = np.empty(geometry.tree.shape[1], dtype=np.int64)
-    targets = np.empty((n_rows, 2))
-    clear = np.empty(n_rows, dtype=np.bool_)
+    rows, found, targets, clear, leaves, _, _ = scratch
     for b in range(poses.shape[0]):
         if not active[b]:
             continue
@@ -212,7 +240,7 @@ def sense_landmarks(
         )
 
 
-@kernel
+@borrowing_kernel
 def proximity_scan(
     poses: np.ndarray,
     geometry_fields: tuple,
@@ -220,18 +248,18 @@ def proximity_scan(
     reach: float,
     active: np.ndarray,
     out: np.ndarray,
+    scratch: tuple,
 ) -> None:
     """The free fraction of each beam, in [0, 1]: out (B, beams) float32, beam k at
     ``beam_angles[k]`` (rad, robot frame) from the robot's centre, ``reach`` m long,
     stopped by the first wall, obstacle or post (``geometry_fields``: the fields of the
-    :class:`StaticGeometry`, a plain tuple)."""
+    :class:`StaticGeometry`, a plain tuple; ``scratch``: a :class:`SensingScratch`)."""
     geometry = StaticGeometry(*geometry_fields)
-    leaves = np.empty(geometry.tree.shape[1], dtype=np.int64)
-    segments = np.empty((beam_angles.shape[0], 4))
+    _, _, _, _, leaves, depths, segments = scratch
     for b in range(poses.shape[0]):
         if not active[b]:
             continue
         x, y, theta = poses[b, 0], poses[b, 1], poses[b, 2]
         count = near_leaves(geometry, b, x, y, reach, leaves)  # once for all beams
         beam_segments(x, y, theta, beam_angles, reach, segments)
-        segment_fractions(geometry, b, leaves, count, segments, out[b])
+        segment_fractions(geometry, b, leaves, count, segments, out[b], depths)

@@ -231,7 +231,8 @@ def test_coverage_of_b_worlds_sharing_one_table():
     features = np.empty((B, 1 + together.n_features))
     state = (*together.tables, flat, n_swept, held, class_counts)
     for step in poses:
-        coverage_step(*state, step, True, new, features, np.ones(len(step), np.bool_))
+        counts = np.empty(2 * together.n_features, np.int64)
+        coverage_step(*state, step, True, new, features, counts, np.ones(len(step), np.bool_))
         for b, grid in enumerate(alone):
             assert new[b] == grid.sweep(*step[b])
             np.testing.assert_array_equal(features[b, 1:], grid.features(*step[b]))

@@ -74,7 +74,8 @@ def assert_agrees(layout: Layout, segments: np.ndarray, skips: np.ndarray) -> np
     bad = np.flatnonzero(visible != expected_visible)
     assert bad.size == 0, f"line of sight {segments[bad[0]].tolist()} skipping {skips[bad[0]]}"
     # the exact search of the tree, which ray_fraction falls back on, agrees on its own
-    searched = np.array([_tree_fraction(g, 0, *s) for s in segments.tolist()])
+    depths = np.empty(g.tree.shape[1], dtype=np.int64)
+    searched = np.array([_tree_fraction(g, 0, *s, depths) for s in segments.tolist()])
     assert np.array_equal(searched.view(np.uint64), expected.view(np.uint64))
     return alphas
 
@@ -455,7 +456,7 @@ def _one_call(
         count = all_leaves(g, 0, leaves)
     else:
         count = near_leaves(g, 0, x, y, reach, leaves)
-    segment_fractions(g, 0, leaves, count, segments, fractions)
+    segment_fractions(g, 0, leaves, count, segments, fractions, np.empty_like(leaves))
     sight_lines(g, 0, leaves, count, x, y, targets, skips, k, clear)
     return count
 

@@ -9,7 +9,12 @@ import pytest
 
 from slam_env.config import EnvConfig, SensorConfig, WorldConfig
 from slam_env.kernels.raycast import line_of_sight
-from slam_env.kernels.sensing import proximity_scan, scan_uniforms, sense_landmarks
+from slam_env.kernels.sensing import (
+    proximity_scan,
+    scan_uniforms,
+    sense_landmarks,
+    sensing_scratch,
+)
 from slam_env.sensors import LandmarkSensor
 from slam_env.world_batch import WorldBatch
 
@@ -64,6 +69,7 @@ def test_each_world_of_the_batch_is_what_the_sensor_sees_alone(sensor: SensorCon
             active,
             *out,
             count,
+            sensing_scratch(n, batch.geometry.tree.shape[1], 0),
         )
         for i in range(b):
             if not active[i]:
@@ -97,7 +103,10 @@ def test_proximity_scan_is_pymunks_segment_query() -> None:
         for i, world in enumerate(batch.worlds):
             world.set_pose(*_free_pose(world, rng))
             batch.poses[i] = world.pose
-        proximity_scan(batch.poses, tuple(batch.geometry), beams, reach, np.ones(4, bool), out)
+        scratch = sensing_scratch(batch.n_landmarks, batch.geometry.tree.shape[1], beams.shape[0])
+        proximity_scan(
+            batch.poses, tuple(batch.geometry), beams, reach, np.ones(4, bool), out, scratch
+        )
         for i, world in enumerate(batch.worlds):
             expected = np.array(world.range_scan(*world.pose, tuple(beams), reach)) / reach
             np.testing.assert_allclose(out[i], expected, rtol=0, atol=1e-6)
