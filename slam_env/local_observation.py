@@ -113,6 +113,8 @@ class LocalEncoding:
             RELATIVE_BOUND,
             np.array([_ROBOT_LOW, _ROBOT_HIGH], dtype=np.float64),
         )
+        # The kernel's scratch for the landmarks' distances and order, one per slot.
+        self._nearest = (np.empty(0), np.empty(0, dtype=np.int64))
 
     def empty(self, worlds: int) -> dict[str, np.ndarray]:
         """Fresh (B, …) float32 arrays for :meth:`encode_batch` to write, by key."""
@@ -157,4 +159,10 @@ class LocalEncoding:
             out["local_map"],
             clipped,
             active,
+            *self._scratch(belief[3].shape[1]),
         )
+
+    def _scratch(self, slots: int) -> tuple[np.ndarray, np.ndarray]:
+        if self._nearest[0].shape[0] < max(slots, 1):
+            self._nearest = (np.empty(max(slots, 1)), np.empty(max(slots, 1), dtype=np.int64))
+        return self._nearest

@@ -10,7 +10,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from slam_env.kernels import inline_kernel, kernel
+from slam_env.kernels import borrowing_kernel, inline_kernel
 
 # Channels of the local map, in order.
 UNSWEPT, OBSTACLE, OUTSIDE, LANDMARK = 0, 1, 2, 3
@@ -45,7 +45,7 @@ def _bounded(v: float, low: float, high: float) -> tuple[float, bool]:
     return min(max(0.0 if math.isnan(v) else v, low), high), True
 
 
-@kernel
+@borrowing_kernel
 def mark_scan_hits(
     x: np.ndarray,
     scan: np.ndarray,
@@ -79,7 +79,7 @@ def mark_scan_hits(
                 obstacles[b, int(hy / cell), int(hx / cell)] = True
 
 
-@kernel
+@borrowing_kernel
 def encode_local(
     x: np.ndarray,
     P: np.ndarray,
@@ -97,6 +97,8 @@ def encode_local(
     local_map: np.ndarray,
     clipped: np.ndarray,
     active: np.ndarray,
+    dist: np.ndarray,
+    order: np.ndarray,
 ) -> None:
     """World b's features (the belief, then the :class:`LocalParams` unpacked, then the
     grids): ``swept`` (B, ny + 2·pad, nx + 2·pad) bool, the coverage grid with its
@@ -104,14 +106,12 @@ def encode_local(
     Outputs (float32): ``robot`` (B, 8), ``landmarks`` (B, 4K), ``local_map``
     (B, C·S·S) with C = :data:`MAP_CHANNELS`, S the map side in cells, row-major
     (channel, row along the robot's left, column along its heading); ``clipped`` (B,)
-    bool: the belief left the bounds (or held a NaN) and was clipped onto them."""
+    bool: the belief left the bounds (or held a NaN) and was clipped onto them.
+    ``dist`` (M,) float64 and ``order`` (M,) int64: scratch, M ≥ the slots (≥ 1)."""
     width, height, max_range, position_scale, heading_scale, total, map_cell = scales
     k_max = landmarks.shape[1] // 4
     side = round(math.sqrt(local_map.shape[1] // MAP_CHANNELS))
     ny, nx = obstacles.shape[1], obstacles.shape[2]
-    m = slot_to_id.shape[1]
-    dist = np.empty(max(m, 1))
-    order = np.empty(max(m, 1), dtype=np.int64)
     share = 1.0 / (SUBSAMPLES * SUBSAMPLES)
     for b in range(x.shape[0]):
         if not active[b]:

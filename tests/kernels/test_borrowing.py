@@ -16,6 +16,7 @@ from slam_env.kernels import (
     ekf,
     ekf_correction,
     full_belief,
+    local_map,
     motion,
     raw_step,
     sensing,
@@ -44,6 +45,8 @@ ENV_STEP = (
     active_step.step_reward,
     egocentric.encode_egocentric,
     full_belief.encode_full,
+    local_map.mark_scan_hits,
+    local_map.encode_local,
     divergence.diverged,
 )
 
