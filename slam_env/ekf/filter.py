@@ -382,13 +382,13 @@ class EKFSLAM:
         # Pinned to the types of the per-call arrays too: z and the IDs as
         # checks.observations returns them, the outputs as update allocates them.
         z, ids = checks.observations(np.empty((0, 2)), np.empty(0, dtype=np.int64))
-        status, nis = np.empty(0, dtype=np.int8), np.empty(0)
+        status, nis, nearest = np.empty(0, dtype=np.int8), np.empty(0), np.empty(0)
         state = (
             self._xb, self._Pb, self._nb, self._id_to_slot_b, self._slot_to_id_b,
             self._n_rejected_b, self._firstb, self._params, self._modes,
         )  # fmt: skip
         io = (self._count, self._mask, self._error, work)
-        compiled = pin(ekf.update_one, *state, z, ids, *io[:2], status, nis, *io[2:])
+        compiled = pin(ekf.update_one, *state, z, ids, *io[:2], status, nis, nearest, *io[2:])
         self._update_call = partial(compiled, *state), io
         if self._associates:
             self._joint_gates = joint_gates(self._association_gates[0], max_obs)
@@ -711,11 +711,9 @@ class EKFSLAM:
             associate, held = self._associate_call
             if not associate(zk[None], count, mask, idk[None], nearest[None], *held):
                 raise RuntimeError("the association's workspace is too small")  # a bug here
-        else:
-            nearest.fill(np.nan)
-        update(zk, idk, count, mask, status, nis, error, work)
-        if error[0]:
-            self._raise(int(error[0]), "update", lambda: checks.bad_observations(zk, idk, self._N))
+        code = update(zk, idk, count, mask, status, nis, nearest, error, work)
+        if code:
+            self._raise(code, "update", lambda: checks.bad_observations(zk, idk, self._N))
         if associates:
             self._tentativeb[...] = self._held  # kept only once the update has succeeded
         return update_result(idk, status, nis, nearest)

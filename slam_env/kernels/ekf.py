@@ -429,17 +429,24 @@ def update_one(
     mask: np.ndarray,
     status: np.ndarray,
     nis: np.ndarray,
+    nearest: np.ndarray,
     error: np.ndarray,
     work: np.ndarray,
-) -> bool:
+) -> int:
     """:func:`update` of a batch of one (the state arrays as there, B = 1) with its k
-    observations unbatched: ``z`` (k, 2), ``ids``, ``status`` and ``nis`` (k,);
-    ``counts[0]`` is set to k. What :class:`~slam_env.ekf.EKFSLAM` calls: the views of
-    a batch of one are taken here, where they cost nothing, not in Python."""
+    observations unbatched: ``z`` (k, 2), ``ids``, ``status``, ``nis`` and ``nearest``
+    (k,); ``counts[0]`` is set to k. With known correspondences ``nearest`` is set to
+    NaN, else left as the association wrote it. Returns the error code, ``error[0]``.
+    What :class:`~slam_env.ekf.EKFSLAM` calls: the views of a batch of one are taken
+    here, where they cost nothing, not in Python."""
     k = z.shape[0]
     counts[0] = k
-    return update(
+    if modes[0, ASSOCIATION] == KNOWN:
+        for j in range(k):
+            nearest[j] = math.nan
+    update(
         x, P, n, id_to_slot, slot_to_id, n_rejected, first, params, modes,
         z.reshape((1, k, 2)), ids.reshape((1, k)), counts, mask,
         status.reshape((1, k)), nis.reshape((1, k)), error, work,
     )  # fmt: skip
+    return error[0]
