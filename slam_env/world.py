@@ -22,9 +22,11 @@ queries. The compiled kernel settles every step that needs no query (turning in
 place, or the whole step inside the disk an earlier query found clear); only the
 others come back to Python and pymunk (:meth:`World._settle`). A
 :class:`~slam_env.world_batch.WorldBatch` also hands the kernel its worlds' static
-geometry, from which it settles the steps that no shape comes near (the distance a
-query would find, :mod:`slam_env.kernels.clearance`); a standalone world asks pymunk,
-and is the reference the batch is tested against. A batched core keeps one world per
+geometry, from which it settles the steps itself, contacts included, making the
+decisions these queries make from the distance a query would find
+(:mod:`slam_env.kernels.clearance`), and leaves to pymunk only a distance within
+round-off of a contact (:mod:`slam_env.kernels.motion`); a standalone world asks
+pymunk, and is the reference the batch is tested against. A batched core keeps one world per
 sub-env and relays it at each reset (:meth:`World.relayout`).
 
 The static geometry lives in pymunk, which moves the robot through its public API, and
@@ -55,12 +57,15 @@ from slam_env.kernels.geometry import (
     set_world,
     static_shapes,
 )
-from slam_env.kernels.motion import CLEARANCE_SLACK, MAX_MOVE_FRACTION, wrap_heading
+from slam_env.kernels.motion import (
+    CLEARANCE_SLACK,
+    CONTACT_BISECTIONS,
+    MAX_MOVE_FRACTION,
+    wrap_heading,
+)
 from slam_env.layouts import LANDMARK_POST_RADIUS, Layout
 
 __all__ = ["LANDMARK_POST_RADIUS", "MAX_MOVE_FRACTION", "World"]
-
-CONTACT_BISECTIONS = 12  # a blocked move stops within 2⁻¹² of its length of the contact
 
 CAT_ROBOT = 0b0001  # shape filter categories
 CAT_WALL = 0b0010

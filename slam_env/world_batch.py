@@ -17,11 +17,11 @@ from slam_env.world import World
 
 class WorldBatch:
     """The worlds of B sub-envs: a :class:`~slam_env.world.World` each (pymunk answers
-    the clearance queries of the robots' motion and resolves their contacts) and, for
-    the kernels, the true poses (B, 3) and the clear disks (B, 3) (each world's pose
-    and disk are its row of these), the landmarks (B, N, 2) with their IDs (B, N) and
-    ID order (B, N), and the static geometry (from which the motion kernel settles the
-    steps that no shape comes near, without a query: :meth:`move`).
+    the clearance queries of the motion the kernel leaves to it) and, for the kernels,
+    the true poses (B, 3) and the clear disks (B, 3) (each world's pose and disk are
+    its row of these), the landmarks (B, N, 2) with their IDs (B, N) and ID order
+    (B, N), and the static geometry (from which the motion kernel settles the steps,
+    contacts included, with the answers pymunk's queries give: :meth:`move`).
 
     A fixed world (a preset or a user layout) is built once and shared by every
     sub-env; with ``preset="random"`` each reset draws a new world from the sub-env's

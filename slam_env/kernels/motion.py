@@ -7,11 +7,19 @@ n = max(substeps, ⌈|v|·dt / (MAX_MOVE_FRACTION·radius)⌉) moves: each turns
 anything: the thinnest obstacle (a post or a wall) plus the robot is wider.
 
 :func:`drive` settles every robot that needs no clearance query (turning in place, or
-the whole step inside the disk that an earlier query found free, or, given the static
-geometry, farther from every shape than the step reaches) and flags the others with
-their moves, which the caller resolves with pymunk's point queries
-(:meth:`slam_env.world.World._settle`): the queries stay pymunk's, the arithmetic of the
-moves is written here once.
+the whole step inside the disk that an earlier query found free). Given the worlds'
+static geometry it settles the others too, from the distance to the nearest shape
+that pymunk's ``point_query_nearest`` finds (:mod:`.clearance`, exact to round-off):
+a step whose reach clears every shape moves freely, and the others move along their
+moves, each checked and a blocked one bisected to the contact, as
+:meth:`slam_env.world.World._settle` does with pymunk's queries. Every decision there
+is the comparison of a distance with the robot's radius; where the kernel's distance
+lies within :data:`CLEARANCE_SLACK` of it (round-off could tell it apart from
+pymunk's), the robot is flagged with its moves and the caller settles it with
+pymunk's queries. So the positions are pymunk's, bit for bit
+(``tests/test_world_batch.py``), and pymunk is asked about one world-step in tens of
+thousands. A world without the geometry (a standalone :class:`~slam_env.world.World`,
+the reference) is flagged wherever its disk does not hold its step.
 """
 
 from __future__ import annotations
@@ -31,6 +39,11 @@ CLEARANCE_SLACK = 1e-9
 # What drive reports for a command whose move count is not even a number (|v|·dt
 # overflows): more than any buffer can hold.
 TOO_MANY_MOVES = 2**62
+# Bisections of a blocked move: it stops within 2⁻¹² of its length of the contact.
+CONTACT_BISECTIONS = 12
+# What _settle_moves reports: every move settled (clear or blocked), or a distance
+# within the slack of the robot's radius, which only pymunk's query can decide.
+SETTLED_CLEAR, SETTLED_BLOCKED, UNDECIDED = 0, 1, 2
 
 _PI = math.pi
 _TWO_PI = 2.0 * math.pi
@@ -50,6 +63,66 @@ def move_count(speed: float, dt: float, radius: float, substeps: int) -> float:
     step at ``speed`` (m/s) takes, as a float (NaN or inf for absurd commands)."""
     moves = abs(speed) * dt / (MAX_MOVE_FRACTION * radius)
     return substeps if moves <= substeps else moves
+
+
+@inline_kernel
+def _blocked_at(geometry: StaticGeometry, b: int, x: float, y: float, radius: float) -> int:
+    """Whether the robot at (x, y) overlaps a shape, as pymunk's query would say (its
+    distance below ``radius``): 1 or 0, or :data:`UNDECIDED` where the kernel's
+    distance (exact to round-off) lies within the slack of ``radius``."""
+    clear = clearance(geometry, b, x, y)
+    if clear < radius - CLEARANCE_SLACK:
+        return 1
+    if clear >= radius + CLEARANCE_SLACK:
+        return 0
+    return UNDECIDED
+
+
+@inline_kernel
+def _settle_moves(
+    geometry: StaticGeometry,
+    b: int,
+    x: float,
+    y: float,
+    moves: np.ndarray,
+    n: int,
+    radius: float,
+    reach: float,
+) -> tuple[int, float, float]:
+    """World b's robot moved from (x, y) along ``moves[:n]``, each move checked and,
+    when blocked, bisected down to the contact, as
+    :meth:`slam_env.world.World._settle` does with pymunk's queries: the same
+    decisions, so the same arithmetic and the same end. Returns :data:`SETTLED_CLEAR`
+    or :data:`SETTLED_BLOCKED` and the end, or :data:`UNDECIDED` (with the start)
+    where a decision is too close to call for the kernel's distance."""
+    if clearance(geometry, b, x, y) >= reach + CLEARANCE_SLACK:
+        for k in range(n):  # nothing within reach of the whole step
+            x += moves[k, 0]
+            y += moves[k, 1]
+        return SETTLED_CLEAR, x, y
+    x0, y0 = x, y
+    blocked = False
+    for k in range(n):
+        dx, dy = moves[k, 0], moves[k, 1]
+        hit = _blocked_at(geometry, b, x + dx, y + dy, radius)
+        if hit == UNDECIDED:
+            return UNDECIDED, x0, y0
+        if hit:
+            blocked = True
+            lo, hi = 0.0, 1.0
+            for _ in range(CONTACT_BISECTIONS):
+                mid = 0.5 * (lo + hi)
+                hit = _blocked_at(geometry, b, x + mid * dx, y + mid * dy, radius)
+                if hit == UNDECIDED:
+                    return UNDECIDED, x0, y0
+                if hit:
+                    hi = mid
+                else:
+                    lo = mid
+            dx, dy = lo * dx, lo * dy
+        x += dx
+        y += dy
+    return (SETTLED_BLOCKED if blocked else SETTLED_CLEAR), x, y
 
 
 @borrowing_kernel
@@ -81,13 +154,14 @@ def drive(
         counts: (B,) int64 out: a flagged robot's number of moves, else 0.
         reaches: (B,) out: a flagged robot's reach radius + |v|·dt (m): nothing within
             it of its start can block any of its moves.
-        blocked: (B,) bool out: False for every active robot (a flagged robot's is
-            the caller's to set).
+        blocked: (B,) bool out: whether each active robot's step ended in a contact
+            (False for a flagged robot: the caller's to set).
         geometry_fields: the worlds' :class:`~slam_env.kernels.geometry.StaticGeometry`
             as a plain tuple, or None (a world that has only pymunk's queries).
 
-    An unflagged robot's pose is final. A flagged one (moving, and its reach not inside
-    its clear disk) has its final heading (the rotation goes on when a contact stops the
+    An unflagged robot's pose is final (given the geometry, ``blocked[b]`` too). A
+    flagged one (moving, its reach not inside its clear disk, and not settled from the
+    geometry) has its final heading (the rotation goes on when a contact stops the
     translation) but keeps its position, for the caller to move along ``moves[b, :n]``
     with clearance queries.
 
@@ -145,6 +219,16 @@ def drive(
                 else:
                     moves[b, k, 0] = dx
                     moves[b, k, 1] = dy
+        if counts[b] and geometry_fields is not None:
+            # Settled here where the kernel's distances decide every move as pymunk's
+            # queries would; only a decision within the slack is left to them.
+            settled, x, y = _settle_moves(
+                StaticGeometry(*geometry_fields), b, x, y, moves[b], n, radius, reaches[b]
+            )
+            if settled != UNDECIDED:
+                counts[b] = 0
+                blocked[b] = settled == SETTLED_BLOCKED
+                flagged -= 1
         poses[b, 0] = x
         poses[b, 1] = y
         poses[b, 2] = wrap_heading(heading)

@@ -158,8 +158,10 @@ def test_a_reach_exactly_on_the_disk_edge_is_free() -> None:
 
 def test_the_geometry_settles_robots_farther_from_every_shape_than_their_reach() -> None:
     """Given the static geometry, a robot whose disk does not hold its step is settled
-    in the kernel (the reference's free loop, its disk now up to the nearest shape) when
-    every shape lies beyond its reach by the slack, and flagged as before otherwise."""
+    in the kernel by the reference's free loop, its disk now up to the nearest shape,
+    when every shape lies beyond its reach by the slack; otherwise along its moves,
+    checked against the shapes (the ends pymunk's queries give: test_world_batch), its
+    disk as it was."""
     layout = world_layouts()[0]
     b = 400
     geometry = set_world(empty_geometry(b), 0, layout, WALL)
@@ -183,16 +185,23 @@ def test_the_geometry_settles_robots_farther_from_every_shape_than_their_reach()
         disk = (x, y, clear) if settled else (0.0, 0.0, -math.inf)
         pose, flagged, _ = reference(start[i].tolist(), disk, v, omega)
         assert disks[i].tolist() == list(disk), i
-        assert poses[i].tolist() == (list(pose) if flagged is None else [x, y, pose[2]]), i
-        assert (counts[i] > 0) == (flagged is not None), i
-        kinds.add("settled" if settled else "flagged" if flagged else "turn")
-    assert kinds == {"settled", "flagged", "turn"}
+        assert counts[i] == 0, i  # no decision in this world is within the slack
+        if flagged is None:
+            assert poses[i].tolist() == list(pose), i
+        else:  # the reference's heading; moved, and as far as its moves at most
+            assert poses[i, 2] == pose[2], i
+            travel = math.hypot(poses[i, 0] - x, poses[i, 1] - y)
+            assert travel <= abs(v) * DT + 1e-12, i
+            assert travel > 0.0 or blocked[i], i  # not moving: it started in contact
+        kinds.add("settled" if settled else "along its moves" if flagged else "turn")
+    assert kinds == {"settled", "along its moves", "turn"}
 
 
 def test_a_reach_clear_of_the_nearest_shape_by_exactly_the_slack_is_free() -> None:
     """Given the geometry, a step whose reach plus CLEARANCE_SLACK is the distance to the
-    nearest shape, to the last bit, is settled in the kernel; a robot one float nearer
-    to the shape is flagged."""
+    nearest shape, to the last bit, is settled in the kernel by the free loop, its disk
+    widened; a robot one float nearer to the shape is settled along its moves, its disk
+    as it was."""
     layout = Layout(
         width=20.0,
         height=20.0,
@@ -212,14 +221,51 @@ def test_a_reach_clear_of_the_nearest_shape_by_exactly_the_slack_is_free() -> No
         x = math.nextafter(x, -math.inf)
     while frees(math.nextafter(x, math.inf)):
         x = math.nextafter(x, math.inf)
-    for start_x, flagged in ((x, False), (math.nextafter(x, math.inf), True)):
+    for start_x, nearer in ((x, False), (math.nextafter(x, math.inf), True)):
         moves, counts, reaches, blocked = outputs(1, SUBSTEPS)
         args = (RADIUS, DT, SUBSTEPS, moves, counts, reaches, blocked, tuple(geometry))
         disks = np.array([[0.0, 0.0, -math.inf]])
         pose = np.array([[start_x, 10.0, 0.0]])
         drive(pose, disks, np.array([[v, omega]]), np.ones(1, bool), *args)
-        assert (counts[0] > 0) == flagged
-        assert (disks[0, 2] == -math.inf) == flagged
+        assert counts[0] == 0 and not blocked[0]
+        assert (disks[0, 2] == -math.inf) == nearer
+
+
+@pytest.mark.parametrize(
+    ("gap", "outcome"),
+    [(2e-9, "clear"), (0.5e-9, "flagged"), (-0.5e-9, "flagged"), (-2e-9, "blocked")],
+)
+def test_a_move_within_the_slack_of_a_contact_is_left_to_pymunk(gap, outcome) -> None:
+    """A robot driven straight at a post, its last move ending ``gap`` beyond touching
+    it: the kernel settles it where its distance decides by more than the slack
+    (clear: all the way; blocked: short of the end), and flags it, unmoved, with its
+    moves for pymunk's queries where the distance is within the slack."""
+    layout = Layout(
+        width=20.0,
+        height=20.0,
+        landmark_ids=(0,),
+        landmark_positions=((10.0, 10.0),),
+        start_pose=(5.0, 10.0, 0.0),
+    )
+    geometry = set_world(empty_geometry(1), 0, layout, WALL)
+    v = 0.5
+    travel = v * DT / SUBSTEPS
+    end = 10.0 - LANDMARK_POST_RADIUS - RADIUS - gap
+    start = end - SUBSTEPS * travel
+    moves, counts, reaches, blocked = outputs(1, SUBSTEPS)
+    args = (RADIUS, DT, SUBSTEPS, moves, counts, reaches, blocked, tuple(geometry))
+    pose = np.array([[start, 10.0, 0.0]])
+    flagged = drive(
+        pose, np.array([[0.0, 0.0, -math.inf]]), np.array([[v, 0.0]]), np.ones(1, bool), *args
+    )
+    assert flagged == (outcome == "flagged") == (counts[0] == SUBSTEPS)
+    if outcome == "flagged":
+        assert pose[0, 0] == start
+        assert moves[0, :SUBSTEPS].tolist() == [[travel, 0.0]] * SUBSTEPS
+    elif outcome == "clear":
+        assert pose[0, 0] == start + travel + travel + travel + travel and not blocked[0]
+    else:
+        assert blocked[0] and start + 3 * travel <= pose[0, 0] < end
 
 
 @pytest.mark.parametrize("speed", [3.0, 1e6, 1e300, math.inf, math.nan])
