@@ -197,11 +197,8 @@ def test_the_geometry_settles_robots_farther_from_every_shape_than_their_reach()
     assert kinds == {"settled", "along its moves", "turn"}
 
 
-def test_a_reach_clear_of_the_nearest_shape_by_exactly_the_slack_is_free() -> None:
-    """Given the geometry, a step whose reach plus CLEARANCE_SLACK is the distance to the
-    nearest shape, to the last bit, is settled in the kernel by the free loop, its disk
-    widened; a robot one float nearer to the shape is settled along its moves, its disk
-    as it was."""
+def one_post_geometry():
+    """A 20 m arena with one post at its centre (10, 10), as the kernels take it."""
     layout = Layout(
         width=20.0,
         height=20.0,
@@ -209,7 +206,15 @@ def test_a_reach_clear_of_the_nearest_shape_by_exactly_the_slack_is_free() -> No
         landmark_positions=((10.0, 10.0),),
         start_pose=(5.0, 10.0, 0.0),
     )
-    geometry = set_world(empty_geometry(1), 0, layout, WALL)
+    return set_world(empty_geometry(1), 0, layout, WALL)
+
+
+def test_a_reach_clear_of_the_nearest_shape_by_exactly_the_slack_is_free() -> None:
+    """Given the geometry, a step whose reach plus CLEARANCE_SLACK is the distance to the
+    nearest shape, to the last bit, is settled in the kernel by the free loop, its disk
+    widened; a robot one float nearer to the shape is settled along its moves, its disk
+    as it was."""
+    geometry = one_post_geometry()
     v, omega = 0.5, 0.3
     reach = RADIUS + v * DT
 
@@ -240,14 +245,7 @@ def test_a_move_within_the_slack_of_a_contact_is_left_to_pymunk(gap, outcome) ->
     it: the kernel settles it where its distance decides by more than the slack
     (clear: all the way; blocked: short of the end), and flags it, unmoved, with its
     moves for pymunk's queries where the distance is within the slack."""
-    layout = Layout(
-        width=20.0,
-        height=20.0,
-        landmark_ids=(0,),
-        landmark_positions=((10.0, 10.0),),
-        start_pose=(5.0, 10.0, 0.0),
-    )
-    geometry = set_world(empty_geometry(1), 0, layout, WALL)
+    geometry = one_post_geometry()
     v = 0.5
     travel = v * DT / SUBSTEPS
     end = 10.0 - LANDMARK_POST_RADIUS - RADIUS - gap
