@@ -8,7 +8,10 @@ from __future__ import annotations
 import numpy as np
 
 from slam_env.budget import MAX_MOVES_PER_STEP
+from slam_env.kernels.geometry import StaticGeometry
 from slam_env.kernels.motion import drive
+
+_TREE = StaticGeometry._fields.index("tree")
 
 
 class Drive:
@@ -32,6 +35,7 @@ class Drive:
         self.moves = np.zeros((num_envs, self.substeps, 2))
         self.counts = np.zeros(num_envs, dtype=np.int64)
         self.reaches = np.zeros(num_envs)
+        self._leaves = np.empty(0, dtype=np.int64)  # the kernel's scratch, one per tree node
 
     def __call__(
         self,
@@ -50,10 +54,13 @@ class Drive:
         found.
         Returns the flagged robots, whose positions the caller settles. ``ValueError``,
         with nothing moved, if a speed would take more than :attr:`max_moves` moves."""
+        leaves = self._leaves
+        if geometry_fields is not None and leaves.shape[0] < geometry_fields[_TREE].shape[1]:
+            leaves = self._leaves = np.empty(geometry_fields[_TREE].shape[1], dtype=np.int64)
         while True:
             flagged = drive(
                 poses, disks, commands, active, self.radius, self.dt, self.substeps, self.moves,
-                self.counts, self.reaches, blocked, geometry_fields,
+                self.counts, self.reaches, blocked, geometry_fields, leaves,
             )  # fmt: skip
             if flagged >= 0:
                 return np.flatnonzero(self.counts).tolist() if flagged else []

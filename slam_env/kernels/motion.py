@@ -29,8 +29,9 @@ import math
 import numpy as np
 
 from slam_env.kernels import borrowing_kernel, inline_kernel
-from slam_env.kernels.clearance import clearance
+from slam_env.kernels.clearance import clearance, clearance_among
 from slam_env.kernels.geometry import StaticGeometry
+from slam_env.kernels.raycast import near_leaves
 
 MAX_MOVE_FRACTION = 0.5  # longest single move, in robot radii (no tunnelling)
 # Slack (m) for round-off when a move is settled from an earlier query's answer; the
@@ -44,6 +45,9 @@ CONTACT_BISECTIONS = 12
 # What _settle_moves reports: every move settled (clear or blocked), or a distance
 # within the slack of the robot's radius, which only pymunk's query can decide.
 SETTLED_CLEAR, SETTLED_BLOCKED, UNDECIDED = 0, 1, 2
+# How much farther than a step's reach (m) _settle_moves looks for the shapes it checks:
+# one farther away is farther than the slack from touching the robot at any move.
+NEAR_LOOKAHEAD = 1e-6
 
 _PI = math.pi
 _TWO_PI = 2.0 * math.pi
@@ -66,11 +70,20 @@ def move_count(speed: float, dt: float, radius: float, substeps: int) -> float:
 
 
 @inline_kernel
-def _blocked_at(geometry: StaticGeometry, b: int, x: float, y: float, radius: float) -> int:
-    """Whether the robot at (x, y) overlaps a shape, as pymunk's query would say (its
-    distance below ``radius``): 1 or 0, or :data:`UNDECIDED` where the kernel's
-    distance (exact to round-off) lies within the slack of ``radius``."""
-    clear = clearance(geometry, b, x, y)
+def _blocked_at(
+    geometry: StaticGeometry,
+    b: int,
+    x: float,
+    y: float,
+    radius: float,
+    leaves: np.ndarray,
+    count: int,
+) -> int:
+    """Whether the robot at (x, y) overlaps one of the shapes of the first ``count``
+    ``leaves``, as pymunk's query would say (its distance below ``radius``): 1 or 0, or
+    :data:`UNDECIDED` where the kernel's distance (exact to round-off) lies within the
+    slack of ``radius``."""
+    clear = clearance_among(geometry, b, x, y, leaves, count)
     if clear < radius - CLEARANCE_SLACK:
         return 1
     if clear >= radius + CLEARANCE_SLACK:
@@ -88,14 +101,19 @@ def _settle_moves(
     n: int,
     radius: float,
     reach: float,
+    leaves: np.ndarray,
 ) -> tuple[int, float, float]:
     """World b's robot moved from (x, y) along ``moves[:n]``, each move checked and,
     when blocked, bisected down to the contact, as
     :meth:`slam_env.world.World._settle` does with pymunk's queries: the same
     decisions, so the same arithmetic and the same end. Returns :data:`SETTLED_CLEAR`
     or :data:`SETTLED_BLOCKED` and the end, or :data:`UNDECIDED` (with the start)
-    where a decision is too close to call for the kernel's distance."""
-    if clearance(geometry, b, x, y) >= reach + CLEARANCE_SLACK:
+    where a decision is too close to call for the kernel's distance. Only the shapes
+    whose boxes lie within ``reach`` (and :data:`NEAR_LOOKAHEAD`) are checked, listed
+    once in ``leaves`` (scratch as long as the tree): every move ends within
+    ``reach − radius`` of the start, so no other shape comes near deciding."""
+    count = near_leaves(geometry, b, x, y, reach + NEAR_LOOKAHEAD, leaves)
+    if clearance_among(geometry, b, x, y, leaves, count) >= reach + CLEARANCE_SLACK:
         for k in range(n):  # nothing within reach of the whole step
             x += moves[k, 0]
             y += moves[k, 1]
@@ -104,7 +122,7 @@ def _settle_moves(
     blocked = False
     for k in range(n):
         dx, dy = moves[k, 0], moves[k, 1]
-        hit = _blocked_at(geometry, b, x + dx, y + dy, radius)
+        hit = _blocked_at(geometry, b, x + dx, y + dy, radius, leaves, count)
         if hit == UNDECIDED:
             return UNDECIDED, x0, y0
         if hit:
@@ -112,7 +130,7 @@ def _settle_moves(
             lo, hi = 0.0, 1.0
             for _ in range(CONTACT_BISECTIONS):
                 mid = 0.5 * (lo + hi)
-                hit = _blocked_at(geometry, b, x + mid * dx, y + mid * dy, radius)
+                hit = _blocked_at(geometry, b, x + mid * dx, y + mid * dy, radius, leaves, count)
                 if hit == UNDECIDED:
                     return UNDECIDED, x0, y0
                 if hit:
@@ -139,6 +157,7 @@ def drive(
     reaches: np.ndarray,
     blocked: np.ndarray,
     geometry_fields: tuple | None,
+    leaves: np.ndarray,
 ) -> int:
     """Drive each ``active`` robot b for ``dt`` s at ``commands[b] = (v, ω)``.
 
@@ -158,6 +177,7 @@ def drive(
             (False for a flagged robot: the caller's to set).
         geometry_fields: the worlds' :class:`~slam_env.kernels.geometry.StaticGeometry`
             as a plain tuple, or None (a world that has only pymunk's queries).
+        leaves: (T,) int64 scratch, at least as long as the geometry's tree.
 
     An unflagged robot's pose is final (given the geometry, ``blocked[b]`` too). A
     flagged one (moving, its reach not inside its clear disk, and not settled from the
@@ -223,8 +243,9 @@ def drive(
             # Settled here where the kernel's distances decide every move as pymunk's
             # queries would; only a decision within the slack is left to them.
             settled, x, y = _settle_moves(
-                StaticGeometry(*geometry_fields), b, x, y, moves[b], n, radius, reaches[b]
-            )
+                StaticGeometry(*geometry_fields), b, x, y, moves[b], n, radius, reaches[b],
+                leaves,
+            )  # fmt: skip
             if settled != UNDECIDED:
                 counts[b] = 0
                 blocked[b] = settled == SETTLED_BLOCKED

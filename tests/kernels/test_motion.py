@@ -20,6 +20,12 @@ from slam_env.layouts import LANDMARK_POST_RADIUS, Layout
 from tests.kernels.geometry_worlds import WALL, world_layouts
 
 RADIUS, DT, SUBSTEPS = 0.25, 0.2, 4
+NO_LEAVES = np.empty(0, dtype=np.int64)  # the scratch of a call without the geometry
+
+
+def with_geometry(geometry):
+    """drive's last two arguments for worlds with this static geometry."""
+    return tuple(geometry), np.empty(geometry.tree.shape[1], dtype=np.int64)
 
 
 def reference(pose, disk, v, omega, radius=RADIUS, dt=DT, substeps=SUBSTEPS):
@@ -86,7 +92,7 @@ def test_drive_is_the_python_loop(seed) -> None:
     capacity = 64
     moves, counts, reaches, blocked = outputs(b, capacity)
     start, disks_before = poses.copy(), disks.copy()
-    args = (RADIUS, DT, SUBSTEPS, moves, counts, reaches, blocked, None)
+    args = (RADIUS, DT, SUBSTEPS, moves, counts, reaches, blocked, None, NO_LEAVES)
     flagged = drive(poses, disks, commands, active, *args)
     assert flagged == np.count_nonzero(counts) > 0
     np.testing.assert_array_equal(disks, disks_before)
@@ -126,7 +132,7 @@ def test_the_clear_disk_boundary() -> None:
             poses = np.array([pose])
             disks = np.array([[cx, cy, disk_radius]])
             moves, counts, reaches, blocked = outputs(1, SUBSTEPS)
-            args = (RADIUS, DT, SUBSTEPS, moves, counts, reaches, blocked, None)
+            args = (RADIUS, DT, SUBSTEPS, moves, counts, reaches, blocked, None, NO_LEAVES)
             drive(poses, disks, np.array([[v, omega]]), np.ones(1, bool), *args)
             expected, flagged, _ = reference(pose, (cx, cy, disk_radius), v, omega)
             assert (counts[0] > 0) == flags == (flagged is not None)
@@ -150,7 +156,7 @@ def test_a_reach_exactly_on_the_disk_edge_is_free() -> None:
             clear = math.nextafter(clear, 0.0)
         for disk_radius, flags in ((clear, False), (math.nextafter(clear, 0.0), True)):
             moves, counts, reaches, blocked = outputs(1, SUBSTEPS)
-            args = (RADIUS, DT, SUBSTEPS, moves, counts, reaches, blocked, None)
+            args = (RADIUS, DT, SUBSTEPS, moves, counts, reaches, blocked, None, NO_LEAVES)
             disks = np.array([[pose[0], pose[1], disk_radius]])
             drive(np.array([pose]), disks, np.array([[v, omega]]), np.ones(1, bool), *args)
             assert (counts[0] > 0) == flags
@@ -174,7 +180,7 @@ def test_the_geometry_settles_robots_farther_from_every_shape_than_their_reach()
     disks = np.tile([0.0, 0.0, -math.inf], (b, 1))  # no query yet
     start, active = poses.copy(), np.ones(b, dtype=bool)
     moves, counts, reaches, blocked = outputs(b, 64)
-    args = (RADIUS, DT, SUBSTEPS, moves, counts, reaches, blocked, tuple(geometry))
+    args = (RADIUS, DT, SUBSTEPS, moves, counts, reaches, blocked, *with_geometry(geometry))
     drive(poses, disks, commands, active, *args)
     kinds = set()
     for i in range(b):
@@ -228,7 +234,7 @@ def test_a_reach_clear_of_the_nearest_shape_by_exactly_the_slack_is_free() -> No
         x = math.nextafter(x, math.inf)
     for start_x, nearer in ((x, False), (math.nextafter(x, math.inf), True)):
         moves, counts, reaches, blocked = outputs(1, SUBSTEPS)
-        args = (RADIUS, DT, SUBSTEPS, moves, counts, reaches, blocked, tuple(geometry))
+        args = (RADIUS, DT, SUBSTEPS, moves, counts, reaches, blocked, *with_geometry(geometry))
         disks = np.array([[0.0, 0.0, -math.inf]])
         pose = np.array([[start_x, 10.0, 0.0]])
         drive(pose, disks, np.array([[v, omega]]), np.ones(1, bool), *args)
@@ -251,7 +257,7 @@ def test_a_move_within_the_slack_of_a_contact_is_left_to_pymunk(gap, outcome) ->
     end = 10.0 - LANDMARK_POST_RADIUS - RADIUS - gap
     start = end - SUBSTEPS * travel
     moves, counts, reaches, blocked = outputs(1, SUBSTEPS)
-    args = (RADIUS, DT, SUBSTEPS, moves, counts, reaches, blocked, tuple(geometry))
+    args = (RADIUS, DT, SUBSTEPS, moves, counts, reaches, blocked, *with_geometry(geometry))
     pose = np.array([[start, 10.0, 0.0]])
     flagged = drive(
         pose, np.array([[0.0, 0.0, -math.inf]]), np.array([[v, 0.0]]), np.ones(1, bool), *args
@@ -273,7 +279,7 @@ def test_too_many_moves_change_nothing_and_say_how_many(speed) -> None:
     commands[3, 0] = speed
     before = [a.copy() for a in (poses, disks, commands)]
     moves, counts, reaches, blocked = outputs(8, SUBSTEPS)
-    args = (RADIUS, DT, SUBSTEPS, moves, counts, reaches, blocked, None)
+    args = (RADIUS, DT, SUBSTEPS, moves, counts, reaches, blocked, None, NO_LEAVES)
     needed = drive(poses, disks, commands, np.ones(8, bool), *args)
     moves_per_step = abs(speed) * DT / (MAX_MOVE_FRACTION * RADIUS)
     expected = math.ceil(moves_per_step) if moves_per_step < TOO_MANY_MOVES else TOO_MANY_MOVES
