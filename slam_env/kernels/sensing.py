@@ -52,7 +52,7 @@ class SensingScratch(NamedTuple):
     :func:`slam_env.kernels.borrowing_kernel`)."""
 
     rows: np.ndarray  # (N,) int64: landmark rows in view
-    found: np.ndarray  # (N, 3): their range, bearing and ID rank
+    found: np.ndarray  # (N, 3): their true range and noise-free measurement
     targets: np.ndarray  # (N, 2): their positions, the sight lines' ends
     clear: np.ndarray  # (N,) bool: the sight lines not blocked
     leaves: np.ndarray  # (tree width,) int64: the shapes near the robot
