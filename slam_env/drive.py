@@ -49,11 +49,13 @@ class Drive:
         """Move the ``active`` ((B,) bool) robots of ``poses`` ((B, 3), in place) with
         clear disks ``disks`` ((B, 3)) by ``commands`` ((B, 2) float64); ``blocked[b]``
         ((B,) bool) becomes False for each. With the worlds' static geometry
-        (``geometry_fields``, else None) the kernel settles the robots far from every
-        shape itself, and replaces their rows of ``disks`` with the wider disks it
-        found.
-        Returns the flagged robots, whose positions the caller settles. ``ValueError``,
-        with nothing moved, if a speed would take more than :attr:`max_moves` moves."""
+        (``geometry_fields``, else None) the kernel settles the robots itself, contacts
+        included (``blocked[b]`` then set), but for a decision within round-off of a
+        contact, and replaces the rows of ``disks`` of those far from every shape with
+        the wider disks it found.
+        Returns the flagged robots, whose positions (and contact) the caller settles.
+        ``ValueError``, with nothing moved, if a speed would take more than
+        :attr:`max_moves` moves."""
         leaves = self._leaves
         if geometry_fields is not None and leaves.shape[0] < geometry_fields[_TREE].shape[1]:
             leaves = self._leaves = np.empty(geometry_fields[_TREE].shape[1], dtype=np.int64)

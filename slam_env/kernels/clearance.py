@@ -1,6 +1,6 @@
 """How far a point is from the static shapes of a world: what the robot's motion asks
-pymunk's point queries, computed in the motion kernel to settle steps that no shape is
-near enough to touch (see :func:`slam_env.kernels.motion.drive`)."""
+pymunk's point queries, computed in the motion kernel to settle its steps, contacts
+included (see :func:`slam_env.kernels.motion.drive`)."""
 
 from __future__ import annotations
 
