@@ -8,8 +8,9 @@ import numpy as np
 import pytest
 
 from slam_env.config import RobotConfig
-from slam_env.kernels.clearance import clearance
+from slam_env.kernels.clearance import clearance, clearance_among
 from slam_env.kernels.geometry import empty_geometry, set_world, static_shapes
+from slam_env.kernels.raycast import all_leaves, near_leaves
 from slam_env.world import _MOTION_FILTER, World
 from tests.kernels.geometry_worlds import WALL, world_layouts
 
@@ -67,3 +68,32 @@ def test_clearance_reads_its_own_worlds_row() -> None:
     alone = set_world(empty_geometry(1), 0, second, WALL)
     for x, y in [(1.0, 1.0), (3.0, 4.0), (5.5, 2.5)]:
         assert clearance(geometry, 1, x, y) == clearance(alone, 0, x, y)
+
+
+@pytest.mark.parametrize("index", range(len(LAYOUTS)), ids=IDS)
+def test_the_distance_among_the_near_shapes_is_the_distance(index: int) -> None:
+    """Over every leaf, the distance among the leaves is the distance, bit for bit;
+    over the leaves near a point, it is wherever a shape lies within that reach (and
+    at least the reach where none does), as the motion kernel relies on."""
+    layout = LAYOUTS[index]
+    rng = np.random.default_rng(100 + index)
+    geometry = set_world(empty_geometry(1), 0, layout, WALL)
+    leaves = np.empty(geometry.tree.shape[1], dtype=np.int64)
+    count = all_leaves(geometry, 0, leaves)
+    uniform = rng.uniform((-0.5, -0.5), (layout.width + 0.5, layout.height + 0.5), (300, 2))
+    points = np.concatenate([uniform, near_surfaces(layout, rng)])
+    kinds = set()
+    for x, y in points.tolist():
+        whole = clearance(geometry, 0, x, y)
+        assert clearance_among(geometry, 0, x, y, leaves, count) == whole
+        reach = rng.uniform(0.1, 2.0)
+        near = near_leaves(geometry, 0, x, y, reach, leaves)
+        among = clearance_among(geometry, 0, x, y, leaves, near)
+        if whole <= reach:
+            assert among == whole, (x, y, reach)
+            kinds.add("within")
+        else:
+            assert among >= reach, (x, y, reach)
+            kinds.add("beyond")
+        count = all_leaves(geometry, 0, leaves)
+    assert kinds == {"within", "beyond"}
