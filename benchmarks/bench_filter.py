@@ -4,7 +4,7 @@ and the compile cost of the kernels.
 
     .venv/bin/python benchmarks/bench_filter.py [--quick] [--correction batch]
                      [--sizes 10 20 50 100 200] [--baseline d380797] [--clock wall|cpu]
-                     [--threads 1] [--no-compile-times]
+                     [--threads 1] [--cpu 0] [--no-compile-times]
 
 One *step* is one prediction and one update with 5 observations of known landmarks
 (range-bearing, odometry motion), with N landmarks in the state. The same steps run
@@ -20,7 +20,8 @@ One *step* is one prediction and one update with 5 observations of known landmar
 and the *floor* is one copy of Σ (``np.copyto`` into a ready buffer): the memory
 traffic of one pass over the covariance, which an update that touches all of Σ
 cannot avoid. Each figure is the best of many short timed blocks, the kinds taking
-turns; BLAS runs single-threaded (``--threads``) so that every filter gets one core.
+turns on one CPU (``--cpu``: the child process too); BLAS runs single-threaded
+(``--threads``).
 
 Then the compile cost: a fresh process with an empty numba cache directory builds
 the kernels on first use (import, one predict, one update), and a second process
@@ -221,6 +222,12 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--threads", type=int, default=1, help="BLAS threads (default 1)")
     parser.add_argument("--rounds", type=int, default=None, help="timed blocks per kind")
     parser.add_argument("--clock", choices=sorted(CLOCKS), default="wall")
+    parser.add_argument(
+        "--cpu",
+        type=int,
+        default=None,
+        help="the CPU both processes run on (default: the lowest this one may use)",
+    )
     parser.add_argument("--no-compile-times", action="store_true")
     parser.add_argument("--worker", action="store_true", help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
@@ -232,6 +239,12 @@ def main(argv: list[str] | None = None) -> None:
         return
     import numpy as np
 
+    # Both processes on one CPU, the child inheriting it: on a shared VM one virtual CPU
+    # can run at two-thirds the speed of the other for tens of seconds, so a baseline
+    # on the other CPU, though it takes turns with ours, could be measured in another
+    # machine's weather.
+    cpu = min(os.sched_getaffinity(0)) if args.cpu is None else args.cpu
+    os.sched_setaffinity(0, {cpu})
     block = 0.005 if args.quick else 0.02
     rounds = args.rounds or (5 if args.quick else 40)
     clock = CLOCKS[args.clock]
@@ -271,7 +284,7 @@ def main(argv: list[str] | None = None) -> None:
     print(
         f"EKF-SLAM step = 1 predict + 5 corrections of known landmarks ({args.correction}, "
         f"odometry + range-bearing), baseline {args.baseline}, BLAS threads = {args.threads}, "
-        f"{args.clock} clock, best of {rounds} rounds taking turns\n"
+        f"{args.clock} clock, best of {rounds} rounds taking turns on CPU {cpu}\n"
     )
     print(
         f"| N | dim | EKFSLAM µs | {args.baseline} µs | {args.baseline} / EKFSLAM | dense µs "

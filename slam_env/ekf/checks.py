@@ -159,9 +159,9 @@ def bad_control(u: np.ndarray) -> ValueError:
 
 
 def observations(z: Any, ids: Any) -> tuple[np.ndarray, np.ndarray]:
-    """z as a float64 (k, 2) array (z itself where it is a C-contiguous, writable
-    float64 array already, else a copy) and the IDs as a fresh int64 (k,) array (all
-    -1 for ``None``). Both are C-contiguous and writable
+    """z as a float64 (k, 2) array (z itself where it is a C-contiguous, aligned,
+    writable float64 array already, else a copy) and the IDs as a fresh int64 (k,) array (all
+    -1 for ``None``). Both are C-contiguous, aligned and writable
     whatever the caller passed, so that they are always of one numba type (the
     filter's kernels are pinned to it). Their values (finite, IDs in range and
     distinct) are checked by the kernel before it changes anything;
@@ -172,8 +172,7 @@ def observations(z: Any, ids: Any) -> tuple[np.ndarray, np.ndarray]:
     if len(shape) != 2 or shape[1] != 2:
         raise ValueError(f"z must have shape (k, 2), got {shape}")
     k = shape[0]
-    flags = z.flags
-    if not (flags.c_contiguous and flags.writeable):
+    if not z.flags.carray:  # C-contiguous, aligned and writable: the pinned type
         z = z.copy()
     if ids is None:  # observations without IDs
         return z, np.full(k, -1, dtype=_INT64)

@@ -362,6 +362,8 @@ class EKFSLAM:
             self._mask, self._error,
         )  # fmt: skip
         self._predict = partial(pin(ekf.predict, *args), *args)
+        self._predict_numbers = partial(pin(ekf.predict_one, *args, 0.0, 0.0, 0.0), *args)
+        self._control_dim = self._u.shape[1]
         self._max_obs = -1
         self._grow_workspace(min(self._N, 8))
 
@@ -669,9 +671,15 @@ class EKFSLAM:
         prediction whose covariance would overflow is refused (``FloatingPointError``).
         """
         u_row = self._u_row
-        checks.control_into(u, u_row, self._motion_name)
-        self._predict()
-        error = self._error[0]
+        error = None
+        if type(u) is tuple and len(u) == self._control_dim:  # the short path: floats
+            a, b, c = u if len(u) == 3 else (*u, 0.0)
+            if type(a) is float and type(b) is float and type(c) is float:
+                error = self._predict_numbers(a, b, c)
+        if error is None:
+            checks.control_into(u, u_row, self._motion_name)
+            self._predict()
+            error = self._error[0]
         if error:
             self._raise(int(error), "predict", lambda: checks.bad_control(u_row))
 

@@ -233,6 +233,34 @@ def predict(
             )
 
 
+@borrowing_kernel
+def predict_one(
+    x: np.ndarray,
+    P: np.ndarray,
+    n: np.ndarray,
+    first: np.ndarray,
+    u: np.ndarray,
+    params: np.ndarray,
+    modes: np.ndarray,
+    mask: np.ndarray,
+    error: np.ndarray,
+    u0: float,
+    u1: float,
+    u2: float,
+) -> int:
+    """:func:`predict` of a batch of one (the arrays as there, B = 1) with its control
+    given as numbers: ``u[0]`` gets (u0, u1, u2), or (u0, u1) where u has two columns.
+    Returns the error code, ``error[0]``. What :class:`~slam_env.ekf.EKFSLAM` calls with
+    a tuple of floats: three writes into a numpy array from Python, and the read of the
+    error, cost more than the prediction at N = 20."""
+    u[0, 0] = u0
+    u[0, 1] = u1
+    if u.shape[1] > 2:
+        u[0, 2] = u2
+    predict(x, P, n, first, u, params, modes, mask, error)
+    return error[0]
+
+
 # --------------------------------------------------------------------------- update
 
 
@@ -378,7 +406,14 @@ def update(
                     continue
             if m == 0:
                 continue
-            added, dropped, code = correct_group(xw, d, U, r, C, obs, m, pb, small, vec, st, ns)
+            if sequential:  # one observation: inlined with m = 1, its loops unrolled
+                added, dropped, code = correct_group(
+                    xw, d, U, r, C, obs, 1, pb, small, vec, st, ns
+                )  # fmt: skip
+            else:
+                added, dropped, code = correct_group(
+                    xw, d, U, r, C, obs, m, pb, small, vec, st, ns
+                )  # fmt: skip
             rejected += dropped
             m = np.int64(0)
             if code != OK:

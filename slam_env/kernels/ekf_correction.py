@@ -158,7 +158,7 @@ def add_observation(
     return OK
 
 
-@borrowing_kernel
+@inline_kernel
 def _joseph_factor(small: np.ndarray, m: int) -> bool:
     """From S + Q in ``small[SMALL_SK]`` (m×m): G = S⁻¹ in ``small[SMALL_G]`` and the factor
     Vᵀ L⁻¹ in ``small[SMALL_F]`` (S = L Lᵀ, E = I − S G, W = L⁻¹ E L, V Vᵀ = I − Wᵀ W),
@@ -223,7 +223,7 @@ def _joseph_factor(small: np.ndarray, m: int) -> bool:
     return True
 
 
-@borrowing_kernel
+@inline_kernel
 def correct_group(
     xw: np.ndarray,
     d: int,
@@ -323,7 +323,9 @@ def correct_group(
     if kept == 0:
         return 0, rejected, OK
     mm = 2 * kept
-    if not _joseph_factor(small, mm):
+    # One observation (sequential mode): inlined with m = 2, its loops unrolled.
+    factored = _joseph_factor(small, 2) if mm == 2 else _joseph_factor(small, mm)
+    if not factored:
         return 0, rejected, NOT_POSITIVE_DEFINITE
     for i in range(mm):
         acc = 0.0

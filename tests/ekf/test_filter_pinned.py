@@ -25,12 +25,17 @@ IDS = np.array([4, 0, 2])
 def odd_observations() -> list[tuple[str, object, object]]:
     readonly = Z.copy()
     readonly.flags.writeable = False
+    # Writable but one byte off the alignment of its float64s.
+    unaligned = np.frombuffer(bytearray(Z.nbytes + 1), dtype=np.float64, offset=1)
+    unaligned = unaligned.reshape(Z.shape)
+    unaligned[...] = Z
     wide = np.zeros((3, 4))
     wide[:, ::2] = Z
     return [
         ("lists", Z.tolist(), IDS.tolist()),
         ("float32 z, uint8 ids", Z.astype(np.float32), IDS.astype(np.uint8)),
         ("read-only z", readonly, IDS),
+        ("unaligned z", unaligned, IDS),
         ("Fortran-ordered z", np.asfortranarray(Z), IDS),
         ("strided z and ids", wide[:, ::2], np.repeat(IDS, 2)[::2]),
         ("reversed", Z[::-1], IDS[::-1]),
@@ -46,6 +51,8 @@ def test_observations_are_always_of_the_one_pinned_type(case, z, ids):
     reference = checks.observations(np.empty((0, 2)), np.empty(0, dtype=np.int64))
     zk, idk = checks.observations(z, ids)
     assert [numba.typeof(a) for a in (zk, idk)] == [numba.typeof(a) for a in reference]
+    # numba types an unaligned array as aligned, and the compiled code assumes it is.
+    assert zk.flags.carray and idk.flags.carray
     np.testing.assert_array_equal(zk, np.asarray(z, dtype=np.float64).reshape(-1, 2))
     expected = np.full(zk.shape[0], -1) if ids is None else np.asarray(ids)
     np.testing.assert_array_equal(idk, expected)
@@ -109,7 +116,7 @@ def test_every_filter_steps_through_calls_pinned_to_its_own_arrays(how, associat
         pose = MOTION_MODELS["odometry"].motion(pose, u)
         ids = rng.permutation(len(GRID))[: 12 if step == 0 else 5]
         for f in (g, twin):
-            f.predict(u)
+            f.predict(tuple(u.tolist()) if step % 2 else u)  # the tuples' own short path
         got, expected = observe(g, pose, ids), observe(twin, pose, ids)
         for name in ("ids", "status", "nis", "nearest"):
             np.testing.assert_array_equal(getattr(got, name), getattr(expected, name))
@@ -119,3 +126,32 @@ def test_every_filter_steps_through_calls_pinned_to_its_own_arrays(how, associat
     assert g._max_obs == 12  # the workspaces grew on the way
     for now, then in zip((original.mean, original.cov, original.id_to_state), before, strict=True):
         np.testing.assert_array_equal(now, then)
+
+
+@pytest.mark.parametrize(
+    ("model", "floats", "ints"),
+    [("odometry", (0.25, 0.5, -0.125), (1, 2, 0)), ("velocity", (0.5, -0.125), (2, 1))],
+)
+def test_a_control_predicts_the_same_in_every_form(model, floats, ints):
+    """A tuple of floats takes a short path of its own (the kernel gets the numbers,
+    not an array): it predicts bit for bit what the same control as an array does, and
+    so do the forms that take the long path (lists, numpy scalars and arrays, ints)."""
+    def predicted(u):
+        f = EKFSLAM(
+            motion_model=model,
+            alphas=(0.01, 0.005, 0.01, 0.005) if model == "odometry" else None,
+            control_noise=None if model == "odometry" else (0.01, 0.01, 0.002, 0.002),
+            measurement_cov=Q,
+            max_landmarks=3,
+            initial_pose_cov=np.diag([1e-3, 1e-3, 1e-4]),
+        )
+        f.update(np.array([[2.0, 0.1], [3.0, -0.4]]), np.array([0, 2]))
+        f.predict(u)
+        return f.mean, f.cov
+
+    reference = predicted(np.array(floats))
+    for u in (floats, list(floats), tuple(map(np.float64, floats)), np.float32(floats)):
+        for got, expected in zip(predicted(u), reference, strict=True):
+            np.testing.assert_array_equal(got, expected)
+    for got, expected in zip(predicted(ints), predicted(np.array(ints, float)), strict=True):
+        np.testing.assert_array_equal(got, expected)

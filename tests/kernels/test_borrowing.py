@@ -24,10 +24,10 @@ from slam_env.kernels import (
 
 EKF_STEP = (
     ekf.predict,
+    ekf.predict_one,
     ekf.update,
     ekf.update_one,
-    ekf_correction.add_observation,
-    ekf_correction.correct_group,
+    ekf_correction.add_observation,  # (correct_group is inlined into update)
     ekf_correction.new_landmarks,
     ekf_correction.apply_factors,
     ekf_correction.commit_new_landmarks,
