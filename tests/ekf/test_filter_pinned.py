@@ -136,6 +136,7 @@ def test_a_control_predicts_the_same_in_every_form(model, floats, ints):
     """A tuple of floats takes a short path of its own (the kernel gets the numbers,
     not an array): it predicts bit for bit what the same control as an array does, and
     so do the forms that take the long path (lists, numpy scalars and arrays, ints)."""
+
     def predicted(u):
         f = EKFSLAM(
             motion_model=model,
