@@ -243,8 +243,10 @@ def main(argv: list[str] | None = None) -> None:
     # can run at two-thirds the speed of the other for tens of seconds, so a baseline
     # on the other CPU, though it takes turns with ours, could be measured in another
     # machine's weather.
-    cpu = min(os.sched_getaffinity(0)) if args.cpu is None else args.cpu
-    os.sched_setaffinity(0, {cpu})
+    cpu = None
+    if hasattr(os, "sched_setaffinity"):  # Linux
+        cpu = min(os.sched_getaffinity(0)) if args.cpu is None else args.cpu
+        os.sched_setaffinity(0, {cpu})
     block = 0.005 if args.quick else 0.02
     rounds = args.rounds or (5 if args.quick else 40)
     clock = CLOCKS[args.clock]
@@ -284,7 +286,8 @@ def main(argv: list[str] | None = None) -> None:
     print(
         f"EKF-SLAM step = 1 predict + 5 corrections of known landmarks ({args.correction}, "
         f"odometry + range-bearing), baseline {args.baseline}, BLAS threads = {args.threads}, "
-        f"{args.clock} clock, best of {rounds} rounds taking turns on CPU {cpu}\n"
+        f"{args.clock} clock, best of {rounds} rounds taking turns"
+        f"{'' if cpu is None else f' on CPU {cpu}'}\n"
     )
     print(
         f"| N | dim | EKFSLAM µs | {args.baseline} µs | {args.baseline} / EKFSLAM | dense µs "
