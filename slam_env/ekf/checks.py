@@ -134,17 +134,10 @@ def landmark_id(value: Any) -> int:
 def control_into(u: Any, row: np.ndarray, model: str) -> None:
     """Write the control u into ``row`` ((dim,) float64, the kernel's input; scratch:
     a refused control may leave part of it written). Its values are checked by the
-    kernel: a non-finite one comes back as :func:`bad_control`. Tuples of floats and
-    real arrays of the right shape take a short path (this runs at every step)."""
-    if type(u) is tuple:
-        if len(u) == len(row):
-            for i, v in enumerate(u):
-                if type(v) is not float:
-                    break
-                row[i] = v
-            else:
-                return
-    elif type(u) is np.ndarray and u.shape == row.shape and u.dtype.kind in "fiu":
+    kernel: a non-finite one comes back as :func:`bad_control`. Real arrays of the
+    right shape take a short path (a tuple of floats does not come here: EKFSLAM.predict
+    passes its numbers to the kernel itself)."""
+    if type(u) is np.ndarray and u.shape == row.shape and u.dtype.kind in "fiu":
         row[:] = u
         return
     arr = real_array(u, "u")

@@ -361,9 +361,7 @@ class EKFSLAM:
             self._xb, self._Pb, self._nb, self._firstb, self._u, self._params, self._modes,
             self._mask, self._error,
         )  # fmt: skip
-        self._predict = partial(pin(ekf.predict, *args), *args)
-        self._predict_numbers = partial(pin(ekf.predict_one, *args, 0.0, 0.0, 0.0), *args)
-        self._control_dim = self._u.shape[1]
+        self._predict = partial(pin(ekf.predict_one, *args, 0.0, 0.0, 0.0), *args)
         self._max_obs = -1
         self._grow_workspace(min(self._N, 8))
 
@@ -671,15 +669,14 @@ class EKFSLAM:
         prediction whose covariance would overflow is refused (``FloatingPointError``).
         """
         u_row = self._u_row
-        error = None
-        if type(u) is tuple and len(u) == self._control_dim:  # the short path: floats
+        floats = type(u) is tuple and len(u) == len(u_row)  # the short path: no array
+        if floats:
             a, b, c = u if len(u) == 3 else (*u, 0.0)
-            if type(a) is float and type(b) is float and type(c) is float:
-                error = self._predict_numbers(a, b, c)
-        if error is None:
+            floats = type(a) is float and type(b) is float and type(c) is float
+        if not floats:
             checks.control_into(u, u_row, self._motion_name)
-            self._predict()
-            error = self._error[0]
+            a, b, c = (*u_row.tolist(), 0.0)[:3]
+        error = self._predict(a, b, c)
         if error:
             self._raise(int(error), "predict", lambda: checks.bad_control(u_row))
 

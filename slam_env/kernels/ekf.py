@@ -250,9 +250,9 @@ def predict_one(
 ) -> int:
     """:func:`predict` of a batch of one (the arrays as there, B = 1) with its control
     given as numbers: ``u[0]`` gets (u0, u1, u2), or (u0, u1) where u has two columns.
-    Returns the error code, ``error[0]``. What :class:`~slam_env.ekf.EKFSLAM` calls with
-    a tuple of floats: three writes into a numpy array from Python, and the read of the
-    error, cost more than the prediction at N = 20."""
+    Returns the error code, ``error[0]``. What :class:`~slam_env.ekf.EKFSLAM` calls:
+    three writes into a numpy array from Python, and the read of the error, cost more
+    than the prediction at N = 20."""
     u[0, 0] = u0
     u[0, 1] = u1
     if u.shape[1] > 2:
