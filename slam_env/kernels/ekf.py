@@ -2,7 +2,8 @@
 state arrays the vector env holds for its worlds. The correspondences are given (the
 landmark IDs, or the choice of :mod:`slam_env.kernels.association`).
 :func:`update` puts together the pieces of :mod:`.ekf_correction` (the Joseph-form
-corrections, the new landmarks, the commit); the codes both share are :mod:`.ekf_codes`.
+corrections, the one pass over P) and :mod:`.ekf_landmarks` (the new landmarks, their
+commit); the codes both share are :mod:`.ekf_codes`.
 
 State of B filters with room for M landmarks (``dmax = 3 + 2M``)
     x (B, dmax) float64            means; world b's live part is ``x[b, :3 + 2 n[b]]``
@@ -83,11 +84,10 @@ from slam_env.kernels.ekf_correction import (
     add_observation,
     all_finite,
     apply_factors,
-    commit_new_landmarks,
     correct_group,
     factor_check,
-    new_landmarks,
 )
+from slam_env.kernels.ekf_landmarks import commit_new_landmarks, new_landmarks
 from slam_env.kernels.models import ODOMETRY, motion_predict
 
 

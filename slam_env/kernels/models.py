@@ -1,10 +1,10 @@
 """The motion and measurement models of the seeds, once, as scalar compiled functions.
 
 Every equation of the models lives here: the filter's kernels (:mod:`slam_env.kernels.ekf`,
-:mod:`slam_env.kernels.ekf_correction`), the odometry sensor's sampling and the public
-array functions of :mod:`slam_env.ekf.models` all compute through these. Plain floats
-in, a tuple of floats out, no arrays and no allocation, so that a kernel calling them
-in its loop costs only the arithmetic.
+:mod:`slam_env.kernels.ekf_correction`, :mod:`slam_env.kernels.ekf_landmarks`), the
+odometry sensor's sampling and the public array functions of :mod:`slam_env.ekf.models`
+all compute through these. Plain floats in, a tuple of floats out, no arrays and no
+allocation, so that a kernel calling them in its loop costs only the arithmetic.
 
 Conventions: a pose is ``(x, y, θ)``; a landmark ``(mx, my)``; the heading is wrapped
 to [−π, π). The two motion models share the form of their pose Jacobian,

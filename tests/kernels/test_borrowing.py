@@ -15,6 +15,7 @@ from slam_env.kernels import (
     egocentric,
     ekf,
     ekf_correction,
+    ekf_landmarks,
     full_belief,
     local_map,
     motion,
@@ -28,9 +29,9 @@ EKF_STEP = (
     ekf.update,
     ekf.update_one,
     ekf_correction.add_observation,  # (correct_group is inlined into update)
-    ekf_correction.new_landmarks,
+    ekf_landmarks.new_landmarks,
     ekf_correction.apply_factors,
-    ekf_correction.commit_new_landmarks,
+    ekf_landmarks.commit_new_landmarks,
 )
 
 # Every kernel call of a single env's step (and of the vector envs' steps).
