@@ -63,7 +63,7 @@ from slam_env.ekf import checks
 from slam_env.ekf.belief_reads import BeliefReads
 from slam_env.ekf.chi2 import chi2_gate, chi2_ppf, joint_gates
 from slam_env.ekf.models import MEASUREMENT_MODELS, MOTION_MODELS
-from slam_env.ekf.results import UpdateResult, update_result
+from slam_env.ekf.results import UpdateResult
 from slam_env.kernels import association, ekf, ekf_codes
 from slam_env.kernels.correction import correction_workspaces
 from slam_env.kernels.models import wrap_angle
@@ -387,17 +387,16 @@ class EKFSLAM(BeliefReads):
         status, nis, nearest = np.empty(0, dtype=np.int8), np.empty(0), np.empty(0)
         state = (
             self._xb, self._Pb, self._nb, self._id_to_slot_b, self._slot_to_id_b,
-            self._n_rejected_b, self._firstb, self._params, self._modes,
+            self._n_rejected_b, self._firstb, self._params, self._modes, self._count,
+            self._mask, self._error, work,
         )  # fmt: skip
-        io = (self._count, self._mask, self._error, work)
-        compiled = pin(ekf.update_one, *state, z, ids, *io[:2], status, nis, nearest, *io[2:])
-        self._update_call = partial(compiled, *state), io
+        self._update = partial(pin(ekf.update_one, *state, z, ids, status, nis, nearest), *state)
         if self._associates:
             self._joint_gates = joint_gates(self._association_gates[0], max_obs)
             belief = (self._xb, self._Pb, self._nb, self._params, self._modes, self._joint_gates)
             held = (self._tentativeb, self._held, fwork, iwork)
             # A batch of one: (1, k, 2) observations, (1, k) IDs and distances.
-            batched = (z[None], *io[:2], ids[None], nis[None])
+            batched = (z[None], self._count, self._mask, ids[None], nis[None])
             compiled = pin(association.associate, *belief, *batched, *held)
             self._associate_call = partial(compiled, *belief), held
 
@@ -607,22 +606,21 @@ class EKFSLAM(BeliefReads):
         status = np.empty(k, _INT8)
         nis = np.empty(k)
         nearest = np.empty(k)
-        update, (count, mask, error, work) = self._update_call
         # The same steps as kernels.correction.correct, called one by one: through that
         # kernel's tuples a step of this filter costs about 10% more (measured at N = 20).
         if associates:
             if not np.isfinite(zk).all():
                 raise checks.bad_observations(zk, np.zeros(k, dtype=np.int64), self._N)
-            count[0] = k
+            self._count[0] = k
             associate, held = self._associate_call
-            if not associate(zk[None], count, mask, idk[None], nearest[None], *held):
+            if not associate(zk[None], self._count, self._mask, idk[None], nearest[None], *held):
                 raise RuntimeError("the association's workspace is too small")  # a bug here
-        code = update(zk, idk, count, mask, status, nis, nearest, error, work)
+        code = self._update(zk, idk, status, nis, nearest)
         if code:
             self._raise(code, "update", lambda: checks.bad_observations(zk, idk, self._N))
         if associates:
             self._tentativeb[...] = self._held  # kept only once the update has succeeded
-        return update_result(idk, status, nis, nearest)
+        return UpdateResult(idk, status, nis, nearest)
 
     @staticmethod
     def _raise(code: int, call: str, bad_input: Any) -> None:
