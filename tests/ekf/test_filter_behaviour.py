@@ -15,7 +15,18 @@ import numpy as np
 import pytest
 
 import slam_env.ekf
-from slam_env.ekf import CORRECTED, EKFSLAM, INITIALISED, REJECTED, Status, chi2_gate, chi2_ppf
+from slam_env.ekf import (
+    CORRECTED,
+    DISCARDED,
+    EKFSLAM,
+    INITIALISED,
+    REJECTED,
+    TENTATIVE,
+    Status,
+    UpdateResult,
+    chi2_gate,
+    chi2_ppf,
+)
 from slam_env.ekf.models import MEASUREMENT_MODELS, MOTION_MODELS
 
 ALPHAS = (0.01, 0.005, 0.01, 0.005)
@@ -328,6 +339,14 @@ def test_update_result():
     assert np.isfinite(res.nis[[0, 2]]).all() and np.isnan(res.nis[1])
     empty = f.update(np.zeros((0, 2)), [])
     assert len(empty) == 0 and empty.status.shape == (0,)
+
+
+def test_each_status_mask_picks_its_own_status():
+    statuses = [CORRECTED, INITIALISED, REJECTED, DISCARDED, TENTATIVE]
+    res = UpdateResult(np.arange(5), np.array(statuses, dtype=np.int8), np.zeros(5), np.zeros(5))
+    masks = [res.corrected, res.initialised, res.rejected, res.discarded, res.tentative]
+    for i, mask in enumerate(masks):
+        np.testing.assert_array_equal(mask, np.arange(5) == i)
 
 
 # --------------------------------------------------------------------------- copy, pickle, reset
