@@ -365,6 +365,10 @@ def test_copy_and_pickle_are_independent_and_equal(correction):
         np.testing.assert_array_equal(g.cov, f.cov)
         assert g.n_rejected == f.n_rejected and g.gate == f.gate
         assert g.correction == correction
+        # The same storage for max_landmarks (the kernels' batch of one), not only the
+        # same live block.
+        shapes = [a.shape for a in f.belief_arrays()]
+        assert [a.shape for a in g.belief_arrays()] == shapes
     # Evolving a clone leaves the original alone; evolving both alike stays equal.
     before = f.mean, f.cov, f.id_to_state
     for g in clones:
