@@ -471,10 +471,10 @@ def update_one(
     """:func:`update` of a batch of one (the state arrays as there, B = 1) with its k
     observations unbatched: ``z`` (k, 2), ``ids``, ``status``, ``nis`` and ``nearest``
     (k,), last, so that a caller can bind the arrays before them; ``counts[0]`` is set
-    to k. With known correspondences ``nearest`` is set to
-    NaN, else left as the association wrote it. Returns the error code, ``error[0]``.
-    What :class:`~slam_env.ekf.EKFSLAM` calls: the views of a batch of one are taken
-    here, where they cost nothing, not in Python."""
+    to k. With known correspondences ``nearest`` is set to NaN, else left as the
+    association wrote it. Returns the error code, ``error[0]``. What
+    :class:`~slam_env.ekf.EKFSLAM` calls: the views of a batch of one are taken here,
+    where they cost nothing, not in Python."""
     k = z.shape[0]
     counts[0] = k
     if modes[0, ASSOCIATION] == KNOWN:
