@@ -2,7 +2,8 @@
 
 Everything here works on the *known* map only: the layout's arena, obstacles and inner
 walls (what a robot is given before it starts), never the true landmark positions or
-the true pose. Pure numpy and the standard library.
+the true pose. Numpy and the standard library; the search's inner loop is compiled
+(:mod:`agents.search_kernel`).
 
 - :class:`GridMap` rasterises the known map: the signed clearance (m) of every cell
   centre to the nearest obstacle, wall or arena edge; ``passable(inflation)`` is the
@@ -35,6 +36,7 @@ from typing import Any
 
 import numpy as np
 
+from agents.search_kernel import dijkstra_fill
 from slam_env.config import EnvConfig
 from slam_env.geometry import wrap_angle
 from slam_env.layouts import DEFAULT_WALL_THICKNESS, LANDMARK_POST_RADIUS, Layout
@@ -241,51 +243,29 @@ def dijkstra(
         flat index of each reached cell's predecessor (−1 for sources and unreached).
     """
     ny, nx = passable.shape
-    free, w = _padded(passable)
-    if cell_cost is None:
-        cost = [resolution] * len(free)
-    else:
-        pc = np.full((ny + 2, nx + 2), resolution)
-        pc[1:-1, 1:-1] = resolution * np.asarray(cell_cost, dtype=np.float64)
-        cost = pc.ravel().tolist()
-    n = len(free)
-    inf = math.inf
-    dist = [inf] * n
-    parent = [-1] * n
-    heap: list[tuple[float, int]] = []
+    w = nx + 2
+    free = np.zeros((ny + 2, w), dtype=np.bool_)
+    free[1:-1, 1:-1] = passable
+    cost = np.full((ny + 2, w), float(resolution))
+    if cell_cost is not None:
+        cost[1:-1, 1:-1] = resolution * np.asarray(cell_cost, dtype=np.float64)
+    dist = np.full(free.size, math.inf)
+    parent = np.full(free.size, -1, dtype=np.int64)
+    starts = []
     for i, j in sources:
         i, j = int(i), int(j)
         if 0 <= i < ny and 0 <= j < nx:
             k = (i + 1) * w + j + 1
             if dist[k] > 0.0:
                 dist[k] = 0.0
-                heap.append((0.0, k))
-    heapq.heapify(heap)
-    pop, push = heapq.heappop, heapq.heappush
-    moves = _moves(w)
-    while heap:
-        d, k = pop(heap)
-        if d > dist[k]:
-            continue
-        if d > max_cost:
-            break
-        for off, length, a, b in moves:
-            m = k + off
-            if not free[m] or (a and not (free[k + a] and free[k + b])):
-                continue
-            nd = d + length * cost[m]
-            if nd < dist[m]:
-                dist[m] = nd
-                parent[m] = k
-                push(heap, (nd, m))
-    dist_arr = np.array(dist).reshape(ny + 2, nx + 2)[1:-1, 1:-1]
-    par = np.array(parent, dtype=np.int64)
+                starts.append(k)
+    starts_arr = np.array(starts, dtype=np.int64)
+    dijkstra_fill(free.ravel(), cost.ravel(), w, starts_arr, float(max_cost), dist, parent)
     # Padded flat indices back to the (ny, nx) grid's.
-    valid = par >= 0
-    pi, pj = np.divmod(par, w)
-    par = np.where(valid, (pi - 1) * nx + (pj - 1), -1)
-    par = par.reshape(ny + 2, nx + 2)[1:-1, 1:-1].ravel()
-    return dist_arr, par
+    pi, pj = np.divmod(parent, w)
+    par = np.where(parent >= 0, (pi - 1) * nx + (pj - 1), -1)
+    par = par.reshape(ny + 2, w)[1:-1, 1:-1].ravel()
+    return dist.reshape(ny + 2, w)[1:-1, 1:-1], par
 
 
 def path_from_parents(parent: np.ndarray, goal: tuple[int, int], nx: int) -> list[tuple[int, int]]:
