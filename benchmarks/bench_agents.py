@@ -7,12 +7,12 @@
    search (:mod:`agents.search_kernel`) against the plain Python one it replaced
    (``benchmarks/dijkstra_reference.py``), side by side, ms per search.
 2. Exploration episodes of the default world (500 steps, seeds 0..) for ``frontier``,
-   ``infogain`` and the shipped ``goals`` policy: seconds per episode, with the share
-   of it spent in the search, and the same episode's time with the Python search
-   patched in (the agents' results are the same bit for bit either way: checked here).
+   ``infogain`` and the shipped ``goals`` policy: seconds per episode, and the same
+   episodes' time with the Python search patched in (the agents' results are the same
+   bit for bit either way: checked here).
 
-Each figure is the best of ``--repeats`` on the CPU clock (the machine is shared), after
-one untimed pass.
+Each figure is the best of ``--repeats`` on the CPU clock (the machine is shared); the
+episodes' after one untimed pass, which loads what the agents need.
 """
 
 from __future__ import annotations
