@@ -193,13 +193,13 @@ class GridMap:
 # --------------------------------------------------------------------------- search
 
 
-def _padded(passable: np.ndarray) -> tuple[list[bool], int]:
+def _padded(passable: np.ndarray) -> tuple[np.ndarray, int]:
     """The passable mask with a one-cell blocked border, flattened, and its row
     stride: neighbours of an inner cell never leave the array."""
     ny, nx = passable.shape
-    pad = np.zeros((ny + 2, nx + 2), dtype=bool)
+    pad = np.zeros((ny + 2, nx + 2), dtype=np.bool_)
     pad[1:-1, 1:-1] = passable
-    return pad.ravel().tolist(), nx + 2
+    return pad.ravel(), nx + 2
 
 
 def _moves(w: int) -> tuple[tuple[int, float, int, int], ...]:
@@ -243,9 +243,7 @@ def dijkstra(
         flat index of each reached cell's predecessor (−1 for sources and unreached).
     """
     ny, nx = passable.shape
-    w = nx + 2
-    free = np.zeros((ny + 2, w), dtype=np.bool_)
-    free[1:-1, 1:-1] = passable
+    free, w = _padded(passable)
     cost = np.full((ny + 2, w), float(resolution))
     if cell_cost is not None:
         cost[1:-1, 1:-1] = resolution * np.asarray(cell_cost, dtype=np.float64)
@@ -260,7 +258,7 @@ def dijkstra(
                 dist[k] = 0.0
                 starts.append(k)
     starts_arr = np.array(starts, dtype=np.int64)
-    dijkstra_fill(free.ravel(), cost.ravel(), w, starts_arr, float(max_cost), dist, parent)
+    dijkstra_fill(free, cost.ravel(), _moves(w), starts_arr, float(max_cost), dist, parent)
     # Padded flat indices back to the (ny, nx) grid's.
     pi, pj = np.divmod(parent, w)
     par = np.where(parent >= 0, (pi - 1) * nx + (pj - 1), -1)
@@ -304,7 +302,8 @@ def astar(
         raise ValueError(f"start {start} or goal {goal} is outside the {ny}×{nx} grid")
     if not passable[gi, gj]:
         return None
-    free, w = _padded(passable)
+    free_cells, w = _padded(passable)
+    free = free_cells.tolist()  # Python's own bools: this search runs in the interpreter
     if cell_cost is None:
         cost = None
     else:

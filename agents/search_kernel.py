@@ -12,13 +12,9 @@ that distances *and* parents equal the Python loop's bit for bit
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
 from slam_env.kernels import inline_kernel, kernel
-
-_SQRT2 = math.sqrt(2.0)
 
 
 @inline_kernel
@@ -62,7 +58,7 @@ def _sift_down(d: np.ndarray, k: np.ndarray, size: int) -> None:
 def dijkstra_fill(
     free: np.ndarray,
     cost: np.ndarray,
-    stride: int,
+    moves: tuple,
     starts: np.ndarray,
     max_cost: float,
     dist: np.ndarray,
@@ -71,21 +67,18 @@ def dijkstra_fill(
     """Shortest path lengths over a padded grid, written into ``dist`` and ``parent``.
 
     Args:
-        free: (n,) bool, the passable mask with a blocked one-cell border, flattened
-            (row stride ``stride``): a neighbour of an inner cell is never outside.
-        cost: (n,) float64, the length of a straight move *into* each cell (a
-            diagonal's is √2 times it).
-        stride: the padded grid's row length.
+        free: (n,) bool, the passable mask with a blocked one-cell border, flattened:
+            a neighbour of an inner cell is never outside.
+        cost: (n,) float64, the length of a straight move *into* each cell.
+        moves: the 8 moves of :func:`agents.navigation._moves` (flat offset, length
+            in cells, and for a diagonal the two orthogonal offsets that must be free:
+            no corner cutting).
         starts: (s,) int64 flat indices of the sources, each distinct.
         max_cost: cells beyond this distance are not expanded.
         dist: (n,) float64, filled with inf except the sources (0) on entry; out:
             the distances (inf where unreached).
         parent: (n,) int64, −1 on entry; out: each reached cell's predecessor.
     """
-    moves = np.array((1, -1, stride, -stride, stride + 1, stride - 1, -stride + 1, -stride - 1))
-    # A diagonal needs both orthogonal cells it passes free (no corner cutting).
-    side_a = np.array((0, 0, 0, 0, stride, stride, -stride, -stride))
-    side_b = np.array((0, 0, 0, 0, 1, -1, 1, -1))
     # Each push lowers a cell's distance, so a cell is pushed at most once per
     # neighbour, plus once as a source.
     capacity = 8 * free.size + starts.size + 1
@@ -107,14 +100,11 @@ def dijkstra_fill(
             continue
         if d > max_cost:
             break
-        for move in range(8):
-            m = k + moves[move]
-            if not free[m]:
+        for off, length, a, b in moves:
+            m = k + off
+            if not free[m] or (a != 0 and not (free[k + a] and free[k + b])):
                 continue
-            diagonal = move >= 4
-            if diagonal and not (free[k + side_a[move]] and free[k + side_b[move]]):
-                continue
-            nd = d + (_SQRT2 if diagonal else 1.0) * cost[m]
+            nd = d + length * cost[m]
             if nd < dist[m]:
                 dist[m] = nd
                 parent[m] = k
