@@ -8,15 +8,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from agents.grid_search import dijkstra, path_from_parents
 from agents.heuristic import HeuristicAgent, HeuristicParams
-from agents.navigation import (
-    ControllerParams,
-    PathFollower,
-    box_sum,
-    dijkstra,
-    path_from_parents,
-    unicycle_control,
-)
+from agents.path_control import ControllerParams, PathFollower, unicycle_control
+from agents.sensor_sweep import box_sum
 from slam_env.geometry import wrap_angle
 
 EXPLORE, LOCALISE, REFINE = "explore", "localise", "refine"

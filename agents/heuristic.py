@@ -8,6 +8,7 @@ per-episode state (``_new_episode``).
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import numbers
 from collections.abc import Callable
@@ -18,15 +19,47 @@ import gymnasium as gym
 import numpy as np
 
 from agents.base import ScriptedAgent
-from agents.navigation import (
-    ControllerParams,
-    EpisodeWatch,
-    ExplorationMemory,
-    StuckDetector,
-    belief_env,
-    is_truthy,
-    make_params,
-)
+from agents.exploration_memory import EpisodeWatch, ExplorationMemory, StuckDetector
+from agents.path_control import ControllerParams
+
+
+def make_params(cls: type, params: dict[str, Any]) -> Any:
+    """``cls(**params)`` for a parameter dataclass, with a ``TypeError`` that lists the
+    valid names for an unknown one."""
+    valid = {f.name for f in dataclasses.fields(cls)}
+    unknown = sorted(set(params) - valid)
+    if unknown:
+        raise TypeError(f"unknown {cls.__name__} {unknown}; valid: {sorted(valid)}")
+    return cls(**params)
+
+
+def belief_env(env: Any) -> Any:
+    """The ``slam_env/ActiveSLAM-v0`` env under ``env``'s wrappers: the object whose
+    ``filter`` holds the belief and whose ``layout`` is the known map. Raises
+    ``TypeError`` for anything else (the heuristics plan on the EKF belief) and for a
+    discrete action space (they output continuous speed and turn commands)."""
+    from gymnasium import spaces
+
+    base = getattr(env, "unwrapped", env)
+    if not (hasattr(base, "filter") and hasattr(type(base), "layout")):
+        raise TypeError(
+            "the exploration heuristics act on the EKF-SLAM belief: pass an env made with "
+            f"gym.make('slam_env/ActiveSLAM-v0'), got {type(base).__name__}"
+        )
+    space = getattr(env, "action_space", None)
+    if not isinstance(space, spaces.Box) or space.shape != (2,):
+        raise TypeError(
+            "the exploration heuristics need the continuous Box(-1, 1, (2,)) action space "
+            f"(action_type='continuous'), got {space!r}"
+        )
+    return base
+
+
+def is_truthy(flag: object) -> bool:
+    """``episode_start`` as SB3 passes it: None, a bool, or a (1,)-array."""
+    if flag is None:
+        return False
+    return bool(np.any(np.asarray(flag)))
 
 
 def _finite(value: object) -> bool:

@@ -10,8 +10,10 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
+from agents.grid_search import dijkstra, nearest_passable
 from agents.heuristic import HeuristicAgent, HeuristicParams
-from agents.navigation import PathFollower, box_sum, dijkstra, nearest_passable
+from agents.path_control import PathFollower
+from agents.sensor_sweep import box_sum
 from slam_env.ekf.models import MEASUREMENT_MODELS
 from slam_env.geometry import odometry_from_poses, velocity_from_poses, wrap_angle
 from slam_env.wrappers import ENTROPY_FLOOR, landmark_prior_variance

@@ -1,4 +1,4 @@
-"""The compiled inner loop of :func:`agents.navigation.dijkstra`.
+"""The compiled inner loop of :func:`agents.grid_search.dijkstra`.
 
 A planning agent's every decision spreads a distance field over the whole known map
 (4,096 cells of 0.25 m in the default 16 m arena, 16 times as many at 64 m): in Python,
@@ -70,7 +70,7 @@ def dijkstra_fill(
         free: (n,) bool, the passable mask with a blocked one-cell border, flattened:
             a neighbour of an inner cell is never outside.
         cost: (n,) float64, the length of a straight move *into* each cell.
-        moves: the 8 moves of :func:`agents.navigation._moves` (flat offset, length
+        moves: the 8 moves of :func:`agents.grid_search._moves` (flat offset, length
             in cells, and for a diagonal the two orthogonal offsets that must be free:
             no corner cutting).
         starts: (s,) int64 flat indices of the sources, each distinct.

@@ -28,7 +28,7 @@ from dijkstra_reference import reference_dijkstra
 import agents.frontier
 import agents.infogain
 from agents.evaluation import run_episode
-from agents.navigation import dijkstra
+from agents.grid_search import dijkstra
 from agents.registry import make_agent, make_env
 
 AGENTS = ("frontier", "infogain", "goals")

@@ -72,7 +72,9 @@ from ideal_ekf import IdealEKF
 from smoother import Episode, smooth
 
 import slam_env  # noqa: F401  (registers the env IDs)
-from agents.navigation import ControllerParams, GridMap, PathFollower, astar, nearest_passable
+from agents.grid_map import GridMap
+from agents.grid_search import astar, nearest_passable
+from agents.path_control import ControllerParams, PathFollower
 from slam_env.config import make_config
 from slam_env.ekf import EKFSLAM, UpdateResult
 from slam_env.env import unpack_detections

@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from agents.navigation import dijkstra
+from agents.grid_search import dijkstra
 from benchmarks.dijkstra_reference import reference_dijkstra
 
 
