@@ -14,13 +14,13 @@ See :class:`slam_env.ekf.filter.EKFSLAM` for the contract and
 """
 
 from slam_env.ekf.chi2 import chi2_gate, chi2_ppf
-from slam_env.ekf.filter import (
+from slam_env.ekf.configuration import (
     CORRECTION_MODES,
     DATA_ASSOCIATIONS,
-    EKFSLAM,
     LINEARIZATIONS,
     kernel_config,
 )
+from slam_env.ekf.filter import EKFSLAM
 from slam_env.ekf.models import MEASUREMENT_MODELS, MOTION_MODELS
 from slam_env.ekf.results import (
     CORRECTED,

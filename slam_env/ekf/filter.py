@@ -61,40 +61,16 @@ import numpy as np
 
 from slam_env.ekf import checks
 from slam_env.ekf.belief_reads import BeliefReads
-from slam_env.ekf.chi2 import chi2_gate, chi2_ppf, joint_gates
-from slam_env.ekf.models import MEASUREMENT_MODELS, MOTION_MODELS
+from slam_env.ekf.chi2 import joint_gates
+from slam_env.ekf.configuration import checked_config, kernel_config
+from slam_env.ekf.models import MOTION_MODELS
 from slam_env.ekf.results import UpdateResult
 from slam_env.kernels import association, ekf, ekf_codes
 from slam_env.kernels.correction import correction_workspaces
 from slam_env.kernels.models import wrap_angle
 from slam_env.kernels.pinning import pin
 
-__all__ = [
-    "CORRECTION_MODES",
-    "DATA_ASSOCIATIONS",
-    "EKFSLAM",
-    "LINEARIZATIONS",
-    "chi2_gate",
-    "chi2_ppf",
-    "kernel_config",
-]
-
-CORRECTION_MODES = ("sequential", "batch")
-_CORRECTION_CODES = {"sequential": ekf_codes.SEQUENTIAL, "batch": ekf_codes.BATCH}
-_ASSOCIATION_CODES = {
-    "known": ekf_codes.KNOWN,
-    "nearest_neighbor": ekf_codes.NEAREST_NEIGHBOR,
-    "jcbb": ekf_codes.JCBB,
-}
-DATA_ASSOCIATIONS = tuple(_ASSOCIATION_CODES)
-_LINEARIZATION_CODES = {"standard": ekf_codes.STANDARD, "fej": ekf_codes.FEJ}
-LINEARIZATIONS = tuple(_LINEARIZATION_CODES)
-# The association's gates by default: a landmark within the 99.9% χ² region of an
-# observation is compatible with it (as ActiveSLAM-v0's validation gate accepts it);
-# one within the 99.999% region forbids starting a new landmark there.
-MATCH_PROBABILITY = 0.999
-NEW_LANDMARK_PROBABILITY = 0.99999
-
+__all__ = ["EKFSLAM"]
 
 _INT8 = np.dtype(np.int8)  # an update's status array
 
@@ -108,47 +84,6 @@ _NUMERICAL_ERRORS = {
     ekf_codes.OVERFLOW: f"a covariance entry would exceed {ekf_codes.COV_LIMIT:g}, or the mean "
     "overflow",
 }
-
-
-def kernel_config(
-    motion_model: str,
-    measurement_model: str,
-    correction: str,
-    noise: tuple[float, float, float, float],
-    measurement_cov: np.ndarray,
-    gate: float | None,
-    data_association: str = "known",
-    linearization: str = "standard",
-    association_gates: tuple[float, float] = (np.inf, np.inf),
-    new_landmark_sightings: int = 1,
-    wide_pairing_scans: int = 1,
-) -> tuple[np.ndarray, np.ndarray]:
-    """One filter's configuration as the kernels of :mod:`slam_env.kernels.ekf` take
-    it: its row of ``params`` ((12,) float64: the motion noise (α1..α4, or σp, σθ, βp,
-    βθ), Q00, Q01, Q11, the gate, ``inf`` for none, the association's match and
-    new-landmark gates, the sightings a new landmark needs and the scans a wide pairing
-    waits) and of ``modes`` ((5,)
-    int64: the motion, measurement, correction, association and linearisation codes).
-    Arguments as :class:`EKFSLAM`'s, already checked (``noise`` the parameters of the
-    chosen motion model)."""
-    Q = measurement_cov
-    params = np.array(
-        [
-            *noise, Q[0, 0], Q[0, 1], Q[1, 1], np.inf if gate is None else gate,
-            *association_gates, new_landmark_sightings, wide_pairing_scans,
-        ]
-    )  # fmt: skip
-    modes = np.array(
-        [
-            MOTION_MODELS[motion_model].code,
-            MEASUREMENT_MODELS[measurement_model].code,
-            _CORRECTION_CODES[correction],
-            _ASSOCIATION_CODES[data_association],
-            _LINEARIZATION_CODES[linearization],
-        ],
-        dtype=np.int64,
-    )
-    return params, modes
 
 
 class EKFSLAM(BeliefReads):
@@ -174,8 +109,9 @@ class EKFSLAM(BeliefReads):
         initial_pose, initial_pose_cov: the prior on the pose ((3,), 3×3 PSD, entries
             ≤ 1e300); also what :meth:`reset` uses when called without arguments.
         gate: ``None`` accepts every observation; a number is a χ² threshold on
-            ``νᵀS⁻¹ν`` (2 dof, see :func:`chi2_gate`) above which an observation of a
-            known landmark is rejected: not applied, counted in ``n_rejected``.
+            ``νᵀS⁻¹ν`` (2 dof, see :func:`~slam_env.ekf.chi2.chi2_gate`) above which an
+            observation of a known landmark is rejected: not applied, counted in
+            ``n_rejected``.
         correction: ``"sequential"`` (one observation at a time, re-linearised at the
             current mean) or ``"batch"`` (all known observations stacked, each gated
             on its own first).
@@ -184,7 +120,7 @@ class EKFSLAM(BeliefReads):
             module's docstring).
         match_gate, new_landmark_gate: the association's χ² thresholds on an
             observation's D² to a landmark (2 dof): compatible within ``match_gate``
-            (default :func:`chi2_gate` (0.999)); a new landmark only where every
+            (default :func:`~slam_env.ekf.chi2.chi2_gate` (0.999)); a new landmark only where every
             landmark lies beyond ``new_landmark_gate`` (default 0.99999), which must be
             at least ``match_gate``. JCBB's joint test is at ``match_gate``'s
             probability, 2 dof per pairing.
@@ -236,55 +172,37 @@ class EKFSLAM(BeliefReads):
         new_landmark_sightings: int = 1,
         wide_pairing_scans: int = 1,
     ) -> None:
-        if motion_model not in MOTION_MODELS:
-            raise ValueError(
-                f"motion_model must be one of {tuple(MOTION_MODELS)}, got {motion_model!r}"
-            )
-        if measurement_model not in MEASUREMENT_MODELS:
-            raise ValueError(
-                f"measurement_model must be one of {tuple(MEASUREMENT_MODELS)}, "
-                f"got {measurement_model!r}"
-            )
-        checks.choice("correction", correction, CORRECTION_MODES)
-        checks.choice("data_association", data_association, DATA_ASSOCIATIONS)
-        checks.choice("linearization", linearization, LINEARIZATIONS)
-        gates = self._check_association_gates(match_gate, new_landmark_gate)
-        sightings = checks.new_landmark_sightings(new_landmark_sightings)
-        wide_scans = checks.wide_pairing_scans(wide_pairing_scans, data_association)
-        self._alphas = None if alphas is None else checks.noise_params(alphas, "alphas")
-        self._control_noise = (
-            None if control_noise is None else checks.noise_params(control_noise, "control_noise")
+        config = checked_config(
+            motion_model=motion_model,
+            measurement_model=measurement_model,
+            alphas=alphas,
+            control_noise=control_noise,
+            measurement_cov=measurement_cov,
+            max_landmarks=max_landmarks,
+            gate=gate,
+            correction=correction,
+            data_association=data_association,
+            linearization=linearization,
+            match_gate=match_gate,
+            new_landmark_gate=new_landmark_gate,
+            new_landmark_sightings=new_landmark_sightings,
+            wide_pairing_scans=wide_pairing_scans,
         )
-        if motion_model == "odometry" and self._alphas is None:
-            raise ValueError("alphas (α1, α2, α3, α4) are required for motion_model='odometry'")
-        if motion_model == "velocity" and self._control_noise is None:
-            raise ValueError(
-                "control_noise (σp, σθ, βp, βθ) is required for motion_model='velocity'"
-            )
-        Q = checks.covariance(measurement_cov, "measurement_cov", 2, definite=True)
-        if isinstance(max_landmarks, (bool, np.bool_)) or not isinstance(
-            max_landmarks, (int, np.integer)
-        ):
-            raise TypeError(f"max_landmarks must be an int, got {type(max_landmarks).__name__}")
-        if max_landmarks < 0:
-            raise ValueError(f"max_landmarks must be >= 0, got {max_landmarks}")
-        if gate is not None:
-            gate = checks.number(gate, "gate")
-            if gate <= 0.0:
-                raise ValueError(f"gate must be > 0 (a χ² threshold) or None, got {gate}")
         pose0, cov0 = self._check_prior(initial_pose, initial_pose_cov)
 
-        self._motion_name = motion_model
-        self._measurement_name = measurement_model
-        self._correction = correction
-        self._gate = gate
-        self._association = data_association
-        self._linearization = linearization
-        self._association_gates = gates
-        self._sightings = sightings
-        self._wide_scans = wide_scans
-        self._Q = Q
-        self._N = int(max_landmarks)
+        self._motion_name = config.motion_model
+        self._measurement_name = config.measurement_model
+        self._alphas = config.alphas
+        self._control_noise = config.control_noise
+        self._correction = config.correction
+        self._gate = config.gate
+        self._association = config.data_association
+        self._linearization = config.linearization
+        self._association_gates = config.association_gates
+        self._sightings = config.new_landmark_sightings
+        self._wide_scans = config.wide_pairing_scans
+        self._Q = config.measurement_cov
+        self._N = config.max_landmarks
         self._initial_pose = pose0
         self._initial_pose_cov = cov0
         dmax = 3 + 2 * self._N
@@ -300,26 +218,6 @@ class EKFSLAM(BeliefReads):
         self._tentativeb = np.zeros((1, association.HELD_ROWS, association.TENTATIVE_WIDTH))
         self._setup()
         self._set_prior(pose0, cov0)
-
-    @staticmethod
-    def _check_association_gates(match: Any, new: Any) -> tuple[float, float]:
-        gates = []
-        for name, value, probability in (
-            ("match_gate", match, MATCH_PROBABILITY),
-            ("new_landmark_gate", new, NEW_LANDMARK_PROBABILITY),
-        ):
-            if value is None:
-                value = chi2_gate(probability)
-            value = checks.number(value, name)
-            if value <= 0.0:
-                raise ValueError(f"{name} must be > 0 (a χ² threshold), got {value}")
-            gates.append(value)
-        if gates[1] < gates[0]:
-            raise ValueError(
-                f"new_landmark_gate ({gates[1]:g}) must be at least match_gate ({gates[0]:g}): "
-                "a new landmark starts only where no landmark is compatible"
-            )
-        return gates[0], gates[1]
 
     # ------------------------------------------------------------------ setup
     def _setup(self) -> None:
