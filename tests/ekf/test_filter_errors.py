@@ -95,6 +95,11 @@ def test_bad_configuration_is_refused(changes, error, match):
         EKFSLAM(**with_(**changes))
 
 
+def test_any_positive_gate_is_a_gate():
+    assert EKFSLAM(**with_(gate=0.5)).gate == 0.5  # below 1 still a χ² threshold
+    assert EKFSLAM(**with_(gate=1e-9)).gate == 1e-9
+
+
 def test_unknown_keyword_is_refused():
     with pytest.raises(TypeError, match="unexpected keyword argument 'alpha'"):
         EKFSLAM(**GOOD, alpha=(0.1, 0.1, 0.1, 0.1))
