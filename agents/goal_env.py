@@ -22,20 +22,34 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from agents.goal_choice import GoalChoiceAgent, choice_space, feature_space
+from agents.goal_choice import (
+    GoalChoiceAgent,
+    check_loop_closing,
+    choice_space,
+    feature_space,
+)
 from agents.registry import make_env
 from agents.world_sampling import MAX_DRAWS, REFERENCE_ARENA, WorldDistribution, episode_length
 
 _SEED_BOUND = 2**31
 
 
-def check_discovery(bonus: Any, until: Any) -> None:
-    """``ValueError`` unless ``discovery_bonus`` is a finite number >= 0 and
-    ``discovery_until`` a number in (0, 1] (:class:`GoalChoiceEnv`'s arguments)."""
+#: How the discovery bonus is paid over an episode (``discovery_schedule``).
+DISCOVERY_SCHEDULES = ("flat", "remaining")
+
+
+def check_discovery(bonus: Any, until: Any, schedule: Any = "flat") -> None:
+    """``ValueError`` unless ``discovery_bonus`` is a finite number >= 0,
+    ``discovery_until`` a number in (0, 1] and ``discovery_schedule`` one of
+    :data:`DISCOVERY_SCHEDULES` (:class:`GoalChoiceEnv`'s arguments)."""
     if not (_is_number(bonus) and 0 <= bonus < math.inf):
         raise ValueError(f"discovery_bonus must be a finite number >= 0, got {bonus!r}")
     if not (_is_number(until) and 0 < until <= 1):
         raise ValueError(f"discovery_until must be a number in (0, 1], got {until!r}")
+    if not (isinstance(schedule, str) and schedule in DISCOVERY_SCHEDULES):
+        raise ValueError(
+            f"discovery_schedule must be one of {DISCOVERY_SCHEDULES}, got {schedule!r}"
+        )
 
 
 def _is_number(value: Any) -> bool:
@@ -61,6 +75,13 @@ class GoalChoiceEnv(gym.Env):
         discovery_until: the share of the world's landmarks, in (0, 1], up to which
             discoveries earn the bonus (0.9: the first 90%, after which only the env's
             reward pays, so that the last landmarks weigh no more than loop closures).
+        loop_closing: the agent's (:class:`~agents.goal_choice.GoalChoiceAgent`):
+            ``"rule"`` closes loops by the frontier agent's rule, and the env's steps
+            then span the loop closures too.
+        discovery_schedule: ``"flat"``: each discovery earns ``discovery_bonus``;
+            ``"remaining"``: times the share of the episode still left when it is made
+            (1 on the first step, 1/T on the last of T), so that the bonuses of an
+            episode sum to the area above its discovery curve: mapping early pays.
     """
 
     metadata: dict[str, Any] = {"render_modes": []}
@@ -72,8 +93,11 @@ class GoalChoiceEnv(gym.Env):
         max_episode_steps: int | None = None,
         discovery_bonus: float = 0.0,
         discovery_until: float = 1.0,
+        loop_closing: str = "policy",
+        discovery_schedule: str = "flat",
     ) -> None:
-        check_discovery(discovery_bonus, discovery_until)
+        check_discovery(discovery_bonus, discovery_until, discovery_schedule)
+        check_loop_closing(loop_closing)
         self.observation_space = feature_space()
         self.action_space = choice_space()
         self._options = dict(env_options or {})
@@ -81,6 +105,10 @@ class GoalChoiceEnv(gym.Env):
         self._max_steps = max_episode_steps
         self._discovery_bonus = float(discovery_bonus)
         self._discovery_until = float(discovery_until)
+        self._loop_closing = loop_closing
+        self._pay_by_time_left = discovery_schedule == "remaining"
+        self._horizon = 1  # env steps of the episode
+        self._t = 0  # env steps so far
         self._env: gym.Env | None = None
         self._agent: GoalChoiceAgent | None = None
         self._info: dict[str, Any] = {}
@@ -101,7 +129,8 @@ class GoalChoiceEnv(gym.Env):
                 setting.get("width", REFERENCE_ARENA), setting.get("height", REFERENCE_ARENA)
             )
             agent_seed, world_seed = (int(s) for s in rng.integers(_SEED_BOUND, size=2))
-            env = make_env(setting, self._max_steps or episode_length(side, side))
+            horizon = self._max_steps or episode_length(side, side)
+            env = make_env(setting, horizon)
             try:
                 _, info = env.reset(seed=world_seed)
                 break
@@ -113,7 +142,10 @@ class GoalChoiceEnv(gym.Env):
         else:
             raise ValueError(f"worlds: no layable setting in {MAX_DRAWS} draws from {self._worlds}")
         self._env = env
-        self._agent = GoalChoiceAgent(env, _refuse_choice, seed=agent_seed)
+        self._horizon, self._t = horizon, 0
+        self._agent = GoalChoiceAgent(
+            env, _refuse_choice, seed=agent_seed, loop_closing=self._loop_closing
+        )
         self._agent.reset()
         self._n_landmarks = max(len(info["landmark_ids"]), 1)
         self._paid_until = self._discovery_until * self._n_landmarks
@@ -143,6 +175,9 @@ class GoalChoiceEnv(gym.Env):
                 _, reward, terminated, truncated, self._info = env.step(action)
                 now, cap = self._info["landmarks_known"], self._paid_until
                 paid = max(min(now, cap) - min(known, cap), 0.0)  # fractional at the cap
+                if self._pay_by_time_left:
+                    paid *= 1.0 - self._t / self._horizon
+                self._t += 1
                 total += float(reward) + self._discovery_bonus * paid
                 if terminated or truncated:
                     return agent.features(), total / self._n_landmarks, terminated, truncated

@@ -26,7 +26,13 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from agents.goal_choice import CHOICES, GoalChoiceAgent, choice_space, feature_space
+from agents.goal_choice import (
+    CHOICES,
+    GoalChoiceAgent,
+    check_loop_closing,
+    choice_space,
+    feature_space,
+)
 from agents.goal_env import GoalChoiceEnv
 from agents.training import (
     TrainConfig,
@@ -51,6 +57,8 @@ class GoalEnvFactory:
     torch_threads: int
     discovery_bonus: float = 0.0
     discovery_until: float = 1.0
+    loop_closing: str = "policy"
+    discovery_schedule: str = "flat"
 
     def __call__(self) -> gym.Env:
         import torch
@@ -58,7 +66,13 @@ class GoalEnvFactory:
         torch.set_num_threads(self.torch_threads)
         worlds = None if self.worlds is None else WorldDistribution.from_mapping(self.worlds)
         return GoalChoiceEnv(
-            self.env_options, worlds, self.max_steps, self.discovery_bonus, self.discovery_until
+            self.env_options,
+            worlds,
+            self.max_steps,
+            self.discovery_bonus,
+            self.discovery_until,
+            self.loop_closing,
+            self.discovery_schedule,
         )
 
 
@@ -83,6 +97,8 @@ def train_goal_choice(cfg: TrainConfig) -> Path:
         cfg.torch_threads,
         cfg.discovery_bonus,
         cfg.discovery_until,
+        cfg.loop_closing,
+        cfg.discovery_schedule,
     )
     if cfg.vectorization == "subproc":
         vec_cls, vec_kwargs = SubprocVecEnv, {"start_method": cfg.start_method}
@@ -128,12 +144,18 @@ def train_goal_choice(cfg: TrainConfig) -> Path:
 
 def load_goal_agent(path: str | Path, env: gym.Env, seed: int | None = None) -> GoalChoiceAgent:
     """The :class:`GoalChoiceAgent` of the policy saved at ``path``, acting on ``env``
-    (greedy choices). ``ValueError`` for a missing file or a policy of other spaces."""
+    (greedy choices), closing loops as its training config (``<name>.yaml`` beside it)
+    says (``loop_closing``; without one, the policy). ``ValueError`` for a missing file,
+    a policy of other spaces or a bad ``loop_closing``."""
     from stable_baselines3 import PPO
 
-    from agents.ppo import resolve_policy_path
+    from agents.ppo import resolve_policy_path, saved_config
 
     path = resolve_policy_path(path)
+    loop_closing = (saved_config(Path(path).with_suffix(".yaml")) or {}).get(
+        "loop_closing", "policy"
+    )
+    check_loop_closing(loop_closing)
     model = PPO.load(path, device="cpu")
     expected = (feature_space(), choice_space())
     if (model.observation_space, model.action_space) != expected:
@@ -146,4 +168,4 @@ def load_goal_agent(path: str | Path, env: gym.Env, seed: int | None = None) -> 
         action, _ = model.predict(features, deterministic=True)
         return int(action)
 
-    return GoalChoiceAgent(env, choose, seed=seed)
+    return GoalChoiceAgent(env, choose, seed=seed, loop_closing=loop_closing)
