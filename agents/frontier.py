@@ -125,33 +125,33 @@ class FrontierAgent(HeuristicAgent):
 
     # ------------------------------------------------------------------ decision
     def _act(self) -> np.ndarray:
-        pose = self._base.filter.pose
+        p = self.params
+        f = self._base.filter
+        pose = f.pose
+        sigma = self._sigma()
         backing_off = self._observe(pose)
         if backing_off is not None:
             return backing_off
-        self._close_loops()
-        if self._look_at is None and self._needs_plan(pose):
-            self._plan(pose)
-        return self._drive(pose)
 
-    def _close_loops(self) -> None:
-        """Close a loop when lost; stop when localised again. A loop closure that
-        timed out is not retried for as long again."""
-        p = self.params
-        sigma = self._sigma()
+        # Close a loop when lost; stop when localised again. A loop closure that
+        # timed out is not retried for as long again.
         if sigma < p.loop_close_std:
             self._trigger = p.loop_close_std
         if (
             self._mode != LOCALISE
             and not self._cooldown
             and sigma > self._trigger
-            and self._base.filter.n_landmarks
+            and f.n_landmarks
         ):
             self._set_mode(LOCALISE)
         elif self._mode == LOCALISE and (
             sigma < p.loop_close_done_std or self._mode_steps > p.loop_close_timeout
         ):
             self._give_up_localising(sigma)
+
+        if self._look_at is None and self._needs_plan(pose):
+            self._plan(pose)
+        return self._drive(pose)
 
     def _observe(self, pose: np.ndarray) -> np.ndarray | None:
         """Sweep the maps from ``pose`` and count the step; the recovery action while

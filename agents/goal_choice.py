@@ -55,16 +55,6 @@ FEATURE_BOUND = 10.0
 Policy = Callable[[np.ndarray], int]
 
 
-#: How a :class:`GoalChoiceAgent` closes loops (its ``loop_closing``).
-LOOP_CLOSING = ("policy", "rule")
-
-
-def check_loop_closing(value: Any) -> None:
-    """``ValueError`` unless ``value`` is one of :data:`LOOP_CLOSING`."""
-    if not (isinstance(value, str) and value in LOOP_CLOSING):
-        raise ValueError(f"loop_closing must be one of {LOOP_CLOSING}, got {value!r}")
-
-
 def choice_space() -> gym.spaces.Discrete:
     """The policy's action: an index into :data:`CHOICES`."""
     return gym.spaces.Discrete(len(CHOICES))
@@ -83,32 +73,14 @@ class GoalChoiceAgent(FrontierAgent):
         policy: maps :func:`choice_features` ((N_FEATURES,) float32) to an index into
             :data:`CHOICES`.
         seed: seed of the agent's random generator (backing off only).
-        loop_closing: ``"policy"``: the policy alone decides when to localise.
-            ``"rule"``: the frontier agent's rule closes the loops too (localising
-            once the pose σ passes ``loop_close_std``, until it falls below
-            ``loop_close_done_std``; :meth:`~agents.frontier.FrontierAgent._close_loops`),
-            and the policy is asked nothing while it does: the policy then learns
-            where to explore, the rule keeps the pose certain on the way.
         **params: overrides of :class:`~agents.frontier.FrontierParams`.
     """
 
     def __init__(
-        self,
-        env: gym.Env,
-        policy: Policy,
-        seed: int | None = None,
-        loop_closing: str = "policy",
-        **params: Any,
+        self, env: gym.Env, policy: Policy, seed: int | None = None, **params: Any
     ) -> None:
-        check_loop_closing(loop_closing)
         super().__init__(env, seed=seed, **params)
         self._policy = policy
-        self._loop_closing = loop_closing
-
-    @property
-    def loop_closing(self) -> str:
-        """``"policy"`` or ``"rule"``: who decides when to close a loop."""
-        return self._loop_closing
 
     def _new_episode(self) -> None:
         super()._new_episode()
@@ -130,15 +102,9 @@ class GoalChoiceAgent(FrontierAgent):
         recovery = self._observe(pose)
         if recovery is not None:
             return self._sent(recovery)
-        rule = self._loop_closing == "rule"
-        if rule:
-            self._close_loops()
         if self._look_at is None and self._needs_plan(pose):
-            if rule and self._mode == LOCALISE:
-                self._plan(pose)  # the rule's loop closure: no choice to make
-            else:
-                self._paths = self._paths_from(pose)
-                return None
+            self._paths = self._paths_from(pose)
+            return None
         return self._sent(self._drive(pose))
 
     def finish_step(self, choice: int) -> np.ndarray:

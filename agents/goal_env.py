@@ -22,12 +22,7 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from agents.goal_choice import (
-    GoalChoiceAgent,
-    check_loop_closing,
-    choice_space,
-    feature_space,
-)
+from agents.goal_choice import GoalChoiceAgent, choice_space, feature_space
 from agents.registry import make_env
 from agents.world_sampling import MAX_DRAWS, REFERENCE_ARENA, WorldDistribution, episode_length
 
@@ -75,9 +70,6 @@ class GoalChoiceEnv(gym.Env):
         discovery_until: the share of the world's landmarks, in (0, 1], up to which
             discoveries earn the bonus (0.9: the first 90%, after which only the env's
             reward pays, so that the last landmarks weigh no more than loop closures).
-        loop_closing: the agent's (:class:`~agents.goal_choice.GoalChoiceAgent`):
-            ``"rule"`` closes loops by the frontier agent's rule, and the env's steps
-            then span the loop closures too.
         discovery_schedule: ``"flat"``: each discovery earns ``discovery_bonus``;
             ``"remaining"``: times the share of the episode still left when it is made
             (1 on the first step, 1/T on the last of T), so that the bonuses of an
@@ -93,11 +85,9 @@ class GoalChoiceEnv(gym.Env):
         max_episode_steps: int | None = None,
         discovery_bonus: float = 0.0,
         discovery_until: float = 1.0,
-        loop_closing: str = "policy",
         discovery_schedule: str = "flat",
     ) -> None:
         check_discovery(discovery_bonus, discovery_until, discovery_schedule)
-        check_loop_closing(loop_closing)
         self.observation_space = feature_space()
         self.action_space = choice_space()
         self._options = dict(env_options or {})
@@ -105,7 +95,6 @@ class GoalChoiceEnv(gym.Env):
         self._max_steps = max_episode_steps
         self._discovery_bonus = float(discovery_bonus)
         self._discovery_until = float(discovery_until)
-        self._loop_closing = loop_closing
         self._pay_by_time_left = discovery_schedule == "remaining"
         self._horizon = 1  # env steps of the episode
         self._t = 0  # env steps so far
@@ -143,9 +132,7 @@ class GoalChoiceEnv(gym.Env):
             raise ValueError(f"worlds: no layable setting in {MAX_DRAWS} draws from {self._worlds}")
         self._env = env
         self._horizon, self._t = horizon, 0
-        self._agent = GoalChoiceAgent(
-            env, _refuse_choice, seed=agent_seed, loop_closing=self._loop_closing
-        )
+        self._agent = GoalChoiceAgent(env, _refuse_choice, seed=agent_seed)
         self._agent.reset()
         self._n_landmarks = max(len(info["landmark_ids"]), 1)
         self._paid_until = self._discovery_until * self._n_landmarks

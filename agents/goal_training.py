@@ -26,13 +26,7 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from agents.goal_choice import (
-    CHOICES,
-    GoalChoiceAgent,
-    check_loop_closing,
-    choice_space,
-    feature_space,
-)
+from agents.goal_choice import CHOICES, GoalChoiceAgent, choice_space, feature_space
 from agents.goal_env import GoalChoiceEnv
 from agents.training import (
     TrainConfig,
@@ -57,7 +51,6 @@ class GoalEnvFactory:
     torch_threads: int
     discovery_bonus: float = 0.0
     discovery_until: float = 1.0
-    loop_closing: str = "policy"
     discovery_schedule: str = "flat"
 
     def __call__(self) -> gym.Env:
@@ -71,7 +64,6 @@ class GoalEnvFactory:
             self.max_steps,
             self.discovery_bonus,
             self.discovery_until,
-            self.loop_closing,
             self.discovery_schedule,
         )
 
@@ -97,7 +89,6 @@ def train_goal_choice(cfg: TrainConfig) -> Path:
         cfg.torch_threads,
         cfg.discovery_bonus,
         cfg.discovery_until,
-        cfg.loop_closing,
         cfg.discovery_schedule,
     )
     if cfg.vectorization == "subproc":
@@ -144,18 +135,12 @@ def train_goal_choice(cfg: TrainConfig) -> Path:
 
 def load_goal_agent(path: str | Path, env: gym.Env, seed: int | None = None) -> GoalChoiceAgent:
     """The :class:`GoalChoiceAgent` of the policy saved at ``path``, acting on ``env``
-    (greedy choices), closing loops as its training config (``<name>.yaml`` beside it)
-    says (``loop_closing``; without one, the policy). ``ValueError`` for a missing file,
-    a policy of other spaces or a bad ``loop_closing``."""
+    (greedy choices). ``ValueError`` for a missing file or a policy of other spaces."""
     from stable_baselines3 import PPO
 
-    from agents.ppo import resolve_policy_path, saved_config
+    from agents.ppo import resolve_policy_path
 
     path = resolve_policy_path(path)
-    loop_closing = (saved_config(Path(path).with_suffix(".yaml")) or {}).get(
-        "loop_closing", "policy"
-    )
-    check_loop_closing(loop_closing)
     model = PPO.load(path, device="cpu")
     expected = (feature_space(), choice_space())
     if (model.observation_space, model.action_space) != expected:
@@ -168,4 +153,4 @@ def load_goal_agent(path: str | Path, env: gym.Env, seed: int | None = None) -> 
         action, _ = model.predict(features, deterministic=True)
         return int(action)
 
-    return GoalChoiceAgent(env, choose, seed=seed, loop_closing=loop_closing)
+    return GoalChoiceAgent(env, choose, seed=seed)

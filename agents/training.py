@@ -89,9 +89,6 @@ class TrainConfig:
     # (agents.goal_env.GoalChoiceEnv); 0 for decisions: actions.
     discovery_bonus: float = 0.0
     discovery_until: float = 1.0  # the share of the landmarks whose discovery earns it
-    # decisions: goals: "policy" (it decides when to close loops) or "rule" (the frontier
-    # agent's rule does; agents.goal_choice.GoalChoiceAgent); "policy" for decisions: actions.
-    loop_closing: str = "policy"
     # decisions: goals: "flat" or "remaining" (the bonus times the share of the episode
     # left; agents.goal_env.GoalChoiceEnv); "flat" for decisions: actions.
     discovery_schedule: str = "flat"
@@ -186,12 +183,10 @@ def validate_config(cfg: TrainConfig) -> TrainConfig:
     _check(cfg.decisions in DECISIONS, "decisions", cfg.decisions, f"one of {DECISIONS}")
     bonus, until = cfg.discovery_bonus, cfg.discovery_until
     if cfg.decisions == "goals":
-        from agents.goal_choice import check_loop_closing  # (seconds to import: goals only)
-        from agents.goal_env import check_discovery
+        from agents.goal_env import check_discovery  # (seconds to import: goals only)
 
         try:
             check_discovery(bonus, until, cfg.discovery_schedule)
-            check_loop_closing(cfg.loop_closing)
         except ValueError as exc:
             raise ConfigError(str(exc)) from None
     else:
@@ -199,8 +194,6 @@ def validate_config(cfg: TrainConfig) -> TrainConfig:
         _check(_is_number(bonus) and bonus == 0.0, "discovery_bonus", bonus, expected)
         expected = "1 unless decisions is goals"
         _check(_is_number(until) and until == 1.0, "discovery_until", until, expected)
-        expected = "'policy' unless decisions is goals"
-        _check(cfg.loop_closing == "policy", "loop_closing", cfg.loop_closing, expected)
         expected = "'flat' unless decisions is goals"
         schedule = cfg.discovery_schedule
         _check(schedule == "flat", "discovery_schedule", schedule, expected)

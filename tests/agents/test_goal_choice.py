@@ -135,51 +135,6 @@ def test_always_the_frontier_weighting_without_loop_closing_is_the_frontier_agen
     np.testing.assert_array_equal(np.array(a), np.array(b))
 
 
-def test_always_the_frontier_weighting_with_the_loop_closing_rule_is_the_frontier_agent():
-    """Choice 0 every time under ``loop_closing="rule"`` is the frontier agent itself,
-    loop closures included; the policy is asked nothing while the rule localises."""
-    ours = make_env({}, 150)
-    theirs = make_env({}, 150)
-    early = {"loop_close_std": 0.12, "loop_close_done_std": 0.08}  # loops within 150 steps
-    policy = Recorder((0,))
-    agent = GoalChoiceAgent(ours, policy, seed=3, loop_closing="rule", **early)
-    frontier = FrontierAgent(theirs, seed=3, **early)
-    obs_a, _ = ours.reset(seed=4)
-    obs_b, _ = theirs.reset(seed=4)
-    localising = asked_while_localising = 0
-    for _ in range(150):
-        asked = len(policy.seen)
-        a, _ = agent.predict(obs_a)
-        b, _ = frontier.predict(obs_b)
-        np.testing.assert_array_equal(a, b)
-        assert agent.mode == frontier.mode
-        if agent.mode == LOCALISE:
-            localising += 1
-            asked_while_localising += len(policy.seen) - asked
-        obs_a, *_ = ours.step(a)
-        obs_b, *_ = theirs.step(b)
-    assert localising > 10 and asked_while_localising == 0
-    assert len(policy.seen) > 3  # asked outside the loop closures
-
-
-def test_without_the_rule_the_policy_decides_whether_to_localise():
-    env = make_env({}, 150)
-    early = {"loop_close_std": 0.12, "loop_close_done_std": 0.08}
-    agent = GoalChoiceAgent(env, Recorder((0,)), seed=3, **early)
-    run(agent, env, seed=4, steps=150)
-    assert agent._sigma() > early["loop_close_std"] and agent.mode == EXPLORE
-
-
-@pytest.mark.parametrize("bad", ["rules", "", None, 1])
-def test_a_bad_loop_closing_is_refused(bad):
-    with pytest.raises(ValueError, match="loop_closing"):
-        GoalChoiceAgent(make_env({}, 10), Recorder(), loop_closing=bad)
-    with pytest.raises(ValueError, match="loop_closing"):
-        GoalChoiceEnv({}, loop_closing=bad)
-    with pytest.raises(ConfigError, match="loop_closing"):
-        config_from_dict({"decisions": "goals", "vectorization": "dummy", "loop_closing": bad})
-
-
 def test_the_env_passes_the_checker_and_repeats_itself():
     env = GoalChoiceEnv(INFORMATION_ONLY, SMALL_WORLDS, max_episode_steps=40)
     check_env(env, skip_render_check=True)
@@ -328,8 +283,6 @@ def test_goal_training_configs_are_checked():
         config_from_dict({"discovery_bonus": 1.0})  # the env steps' reward has no such term
     with pytest.raises(ConfigError, match="1 unless decisions is goals"):
         config_from_dict({"discovery_until": 0.5})
-    with pytest.raises(ConfigError, match="'policy' unless decisions is goals"):
-        config_from_dict({"loop_closing": "rule"})
     with pytest.raises(ConfigError, match="'flat' unless decisions is goals"):
         config_from_dict({"discovery_schedule": "remaining"})
 
@@ -403,7 +356,6 @@ def test_loading_refuses_what_is_not_a_goal_policy(tmp_path):
     with pytest.raises(ValueError, match="needs a path"):
         make_agent("goals:", env)
     assert choice_space().n == len(CHOICES) and LOCALISE in {c.mode for c in CHOICES}
-    assert load_goal_agent(SHIPPED_GOAL_POLICY, env).loop_closing == "policy"
 
 
 def test_the_shipped_policy_runs_on_every_setting_of_the_suite():
@@ -427,7 +379,7 @@ def test_cli_trains_a_goal_policy_and_says_how_many_choices(tmp_path, capsys):
                 "decisions": "goals",
                 "vectorization": "dummy",
                 "discovery_bonus": 2.0,
-                "loop_closing": "rule",
+                "discovery_schedule": "remaining",
                 "env_options": INFORMATION_ONLY,
                 "worlds": {"arena_sizes": [8.0], "landmark_counts": [4]},
                 "max_episode_steps": 20,
@@ -443,13 +395,6 @@ def test_cli_trains_a_goal_policy_and_says_how_many_choices(tmp_path, capsys):
     assert cli_main([*argv, "--out", str(out), "--no-progress"]) == 0
     saved = yaml.safe_load((out / "ppo_active_slam.yaml").read_text())
     assert (saved["decisions"], saved["discovery_bonus"]) == ("goals", 2.0)
-    agent = make_agent(f"goals:{out / 'ppo_active_slam.zip'}", make_env({}, 10))
-    assert agent.loop_closing == "rule"  # as the config saved beside the policy says
-    (out / "ppo_active_slam.yaml").unlink()
-    agent = make_agent(f"goals:{out / 'ppo_active_slam.zip'}", make_env({}, 10))
-    assert agent.loop_closing == "policy"  # a policy without its config: the default
-    (out / "ppo_active_slam.yaml").write_text("loop_closing: sometimes\n")
-    with pytest.raises(ValueError, match="loop_closing"):
-        make_agent(f"goals:{out / 'ppo_active_slam.zip'}", make_env({}, 10))
+    assert saved["discovery_schedule"] == "remaining"
     printed = capsys.readouterr().out
     assert "32 choices in" in printed and "choices/s with 1 envs, dummy" in printed
