@@ -28,6 +28,7 @@ from dijkstra_reference import reference_dijkstra
 import agents.frontier
 import agents.infogain
 from agents.evaluation import run_episode
+from agents.exploration_memory import ExplorationMemory
 from agents.grid_search import dijkstra
 from agents.registry import make_agent, make_env
 
@@ -45,15 +46,15 @@ def best_of(repeats: int, fn: Callable[[], object]) -> tuple[float, object]:
 
 
 def default_grid() -> tuple[np.ndarray, np.ndarray, float, tuple[int, int]]:
-    """(passable, cell_cost, resolution, start cell) of the frontier agent's planning
-    grid at the start of a default-world episode."""
+    """(passable, cell_cost, resolution, start cell) of the planning grid the
+    heuristic agents build (with their default parameters) at the start of a
+    default-world episode."""
     env = make_env({}, 500)
-    agent = make_agent("frontier", env, 0)
     env.reset(seed=0)
-    agent.reset()
-    mem = agent._memory
-    pose = agent._base.filter.pose
-    start = mem.grid.cell_of(float(pose[0]), float(pose[1]))
+    base = env.unwrapped
+    mem = ExplorationMemory(base.layout, base.config)
+    x, y, _ = base.filter.pose
+    start = mem.grid.cell_of(float(x), float(y))
     env.close()
     return mem.free, mem.cell_cost, float(mem.grid.resolution), start
 
