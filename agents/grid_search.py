@@ -1,11 +1,8 @@
 """Searches on an 8-connected grid without corner cutting (a :class:`~agents.grid_map.GridMap`'s
 passable cells): :func:`dijkstra` (a distance field from one or many source cells; its
 inner loop compiled in :mod:`agents.search_kernel`), :func:`path_from_parents`,
-:func:`astar` (one path) and :func:`nearest_passable`.
-
-Conventions: a grid has ``shape = (ny, nx)``; cell ``(i, j)`` (row ``i`` along y,
-column ``j`` along x) covers ``[j·res, (j+1)·res] × [i·res, (i+1)·res]`` and its
-centre is ``((j + ½)·res, (i + ½)·res)``. Flat indices are ``i·nx + j``.
+:func:`astar` (one path) and :func:`nearest_passable`. Cells and flat indices as
+:mod:`agents.grid_map` says.
 """
 
 from __future__ import annotations
