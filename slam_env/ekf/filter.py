@@ -190,29 +190,18 @@ class EKFSLAM(BeliefReads):
         )
         pose0, cov0 = self._check_prior(initial_pose, initial_pose_cov)
 
-        self._motion_name = config.motion_model
-        self._measurement_name = config.measurement_model
-        self._alphas = config.alphas
-        self._control_noise = config.control_noise
-        self._correction = config.correction
-        self._gate = config.gate
-        self._association = config.data_association
-        self._linearization = config.linearization
-        self._association_gates = config.association_gates
-        self._sightings = config.new_landmark_sightings
-        self._wide_scans = config.wide_pairing_scans
-        self._Q = config.measurement_cov
-        self._N = config.max_landmarks
+        self._config = config
         self._initial_pose = pose0
         self._initial_pose_cov = cov0
-        dmax = 3 + 2 * self._N
+        n_max = config.max_landmarks
+        dmax = 3 + 2 * n_max
         # The state, a batch of one (slam_env.kernels.ekf): x (1, dmax), P (1, dmax,
         # dmax), n (1,), id_to_slot (1, N), slot_to_id (1, N), n_rejected (1,).
         self._xb = np.zeros((1, dmax))
         self._Pb = np.zeros((1, dmax, dmax))
         self._nb = np.zeros(1, dtype=np.int64)
-        self._id_to_slot_b = np.full((1, self._N), -1, dtype=np.int64)
-        self._slot_to_id_b = np.full((1, self._N), -1, dtype=np.int64)
+        self._id_to_slot_b = np.full((1, n_max), -1, dtype=np.int64)
+        self._slot_to_id_b = np.full((1, n_max), -1, dtype=np.int64)
         self._n_rejected_b = np.zeros(1, dtype=np.int64)
         self._firstb = np.zeros((1, dmax))
         self._tentativeb = np.zeros((1, association.HELD_ROWS, association.TENTATIVE_WIDTH))
@@ -227,21 +216,23 @@ class EKFSLAM(BeliefReads):
         self._P = self._Pb[0]
         self._id_to_slot = self._id_to_slot_b[0]
         self._slot_to_id = self._slot_to_id_b[0]
-        self._u = np.zeros((1, MOTION_MODELS[self._motion_name].control_dim))
+        c = self._config
+        self._N = c.max_landmarks  # (read by every landmark lookup)
+        self._u = np.zeros((1, MOTION_MODELS[c.motion_model].control_dim))
         self._u_row = self._u[0]  # the control, written in place by predict
-        noise = self._alphas if self._motion_name == "odometry" else self._control_noise
+        noise = c.alphas if c.motion_model == "odometry" else c.control_noise
         params, modes = kernel_config(
-            self._motion_name,
-            self._measurement_name,
-            self._correction,
+            c.motion_model,
+            c.measurement_model,
+            c.correction,
             noise,
-            self._Q,
-            self._gate,
-            self._association,
-            self._linearization,
-            self._association_gates,
-            self._sightings,
-            self._wide_scans,
+            c.measurement_cov,
+            c.gate,
+            c.data_association,
+            c.linearization,
+            c.association_gates,
+            c.new_landmark_sightings,
+            c.wide_pairing_scans,
         )
         self._params = params[None]
         self._modes = modes[None]
@@ -251,7 +242,7 @@ class EKFSLAM(BeliefReads):
         # The tentative sightings an update would keep (read only where the filter
         # associates, as the joint gates grown with the workspaces).
         self._held = np.empty_like(self._tentativeb)
-        self._associates = self._association != "known"
+        self._associates = c.data_association != "known"
         # The kernels' compiled code pinned to the arrays this filter owns (and to the
         # types of the per-call ones: the outputs it allocates, and z and the IDs as
         # checks.observations returns them), called with those arrays bound: a call
@@ -290,7 +281,7 @@ class EKFSLAM(BeliefReads):
         )  # fmt: skip
         self._update = partial(pin(ekf.update_one, *state, z, ids, status, nis, nearest), *state)
         if self._associates:
-            self._joint_gates = joint_gates(self._association_gates[0], max_obs)
+            self._joint_gates = joint_gates(self._config.association_gates[0], max_obs)
             belief = (self._xb, self._Pb, self._nb, self._params, self._modes, self._joint_gates)
             held = (self._tentativeb, self._held, fwork, iwork)
             # A batch of one: (1, k, 2) observations, (1, k) IDs and distances.
@@ -328,56 +319,57 @@ class EKFSLAM(BeliefReads):
     # ------------------------------------------------------------------ read access
     @property
     def motion_model(self) -> str:
-        return self._motion_name
+        return self._config.motion_model
 
     @property
     def measurement_model(self) -> str:
-        return self._measurement_name
+        return self._config.measurement_model
 
     @property
     def correction(self) -> str:
-        return self._correction
+        return self._config.correction
 
     @property
     def gate(self) -> float | None:
-        return self._gate
+        return self._config.gate
 
     @property
     def data_association(self) -> str:
-        return self._association
+        return self._config.data_association
 
     @property
     def linearization(self) -> str:
-        return self._linearization
+        return self._config.linearization
 
     @property
     def new_landmark_sightings(self) -> int:
-        return self._sightings
+        return self._config.new_landmark_sightings
 
     @property
     def wide_pairing_scans(self) -> int:
-        return self._wide_scans
+        return self._config.wide_pairing_scans
 
     @property
     def association_gates(self) -> tuple[float, float]:
         """(match_gate, new_landmark_gate), the association's χ² thresholds."""
-        return self._association_gates
+        return self._config.association_gates
 
     @property
     def measurement_cov(self) -> np.ndarray:
         """Q (2×2), a copy."""
-        return self._Q.copy()
+        return self._config.measurement_cov.copy()
 
     @property
     def max_landmarks(self) -> int:
-        return self._N
+        return self._config.max_landmarks
 
     def __repr__(self) -> str:
+        c = self._config
         return (
-            f"EKFSLAM(motion_model={self._motion_name!r}, "
-            f"measurement_model={self._measurement_name!r}, correction={self._correction!r}, "
-            f"data_association={self._association!r}, linearization={self._linearization!r}, "
-            f"n_landmarks={self.n_landmarks}, max_landmarks={self._N}, gate={self._gate})"
+            f"EKFSLAM(motion_model={c.motion_model!r}, "
+            f"measurement_model={c.measurement_model!r}, correction={c.correction!r}, "
+            f"data_association={c.data_association!r}, linearization={c.linearization!r}, "
+            f"n_landmarks={self.n_landmarks}, max_landmarks={c.max_landmarks}, gate={c.gate})"
         )
 
     # ------------------------------------------------------------------ copy / pickle
@@ -387,23 +379,7 @@ class EKFSLAM(BeliefReads):
         "_xb", "_Pb", "_nb", "_id_to_slot_b", "_slot_to_id_b", "_n_rejected_b", "_firstb",
         "_tentativeb",
     )  # fmt: skip
-    _CONFIG = (
-        "_motion_name",
-        "_measurement_name",
-        "_correction",
-        "_gate",
-        "_association",
-        "_linearization",
-        "_association_gates",
-        "_sightings",
-        "_wide_scans",
-        "_Q",
-        "_N",
-        "_alphas",
-        "_control_noise",
-        "_initial_pose",
-        "_initial_pose_cov",
-    )
+    _CONFIG = ("_config", "_initial_pose", "_initial_pose_cov")
 
     def copy(self) -> EKFSLAM:
         """An independent deep copy (for planners that simulate on the belief)."""
@@ -450,7 +426,7 @@ class EKFSLAM(BeliefReads):
         live = state.pop("_Pb")
         for name, value in state.items():
             setattr(self, name, value)
-        dmax = 3 + 2 * self._N
+        dmax = 3 + 2 * self._config.max_landmarks
         d = live.shape[1]
         self._Pb = np.zeros((1, dmax, dmax))
         self._Pb[:, :d, :d] = live
@@ -472,7 +448,7 @@ class EKFSLAM(BeliefReads):
             a, b, c = u if len(u) == 3 else (*u, 0.0)
             floats = type(a) is float and type(b) is float and type(c) is float
         if not floats:
-            checks.control_into(u, u_row, self._motion_name)
+            checks.control_into(u, u_row, self._config.motion_model)
             a, b, c = (*u_row.tolist(), 0.0)[:3]
         error = self._predict(a, b, c)
         if error:
@@ -495,7 +471,7 @@ class EKFSLAM(BeliefReads):
         zk, idk = checks.observations(z, ids)
         if associates and (idk != -1).any():
             raise ValueError(
-                f"data_association={self._association!r} chooses the landmarks itself: "
+                f"data_association={self._config.data_association!r} chooses the landmarks itself: "
                 f"ids must be None or all -1, got {idk.tolist()}"
             )
         k = idk.shape[0]
