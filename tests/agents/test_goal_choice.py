@@ -318,6 +318,43 @@ def test_training_smoke_run_then_the_policy_runs_on_every_setting_of_the_suite(t
         env.close()
 
 
+def goal_policy_parameters(out_dir, seed: int) -> list[np.ndarray]:
+    """The weights of a tiny goal policy trained as the shipped one is: worker
+    processes, every episode in a world drawn from the config's distribution."""
+    from stable_baselines3 import PPO
+
+    path = train(
+        {
+            "decisions": "goals",
+            "total_timesteps": 64,
+            "n_envs": 2,
+            "vectorization": "subproc",
+            "seed": seed,
+            "env_options": INFORMATION_ONLY,
+            "worlds": {"arena_sizes": [8.0, 12.0], "landmark_counts": [4, 9]},
+            "max_episode_steps": 30,
+            "progress_bar": False,
+            "tensorboard": False,
+            "checkpoint_freq": 0,
+            "eval_freq": 0,
+            "out_dir": str(out_dir),
+            "ppo": {"n_steps": 32, "batch_size": 32, "n_epochs": 2, "net_arch": [8]},
+        }
+    )
+    return [t.detach().numpy() for t in PPO.load(path, device="cpu").policy.parameters()]
+
+
+def test_goal_training_is_reproducible_from_its_seed(tmp_path):
+    # The shipped policy's claim: its config and seed train it again bit for bit (the
+    # worlds each worker draws included); another seed trains another policy.
+    first, again, other = (
+        goal_policy_parameters(tmp_path / run, seed) for run, seed in (("a", 3), ("b", 3), ("c", 4))
+    )
+    for a, b in zip(first, again, strict=True):
+        np.testing.assert_array_equal(a, b)
+    assert any(not np.array_equal(a, c) for a, c in zip(first, other, strict=True))
+
+
 def test_goal_training_keeps_the_learners_torch_threads(tmp_path):
     import torch
 
