@@ -76,7 +76,7 @@ from agents.grid_map import GridMap
 from agents.grid_search import astar, nearest_passable
 from agents.path_control import ControllerParams, PathFollower
 from slam_env.config import make_config
-from slam_env.ekf import EKFSLAM, UpdateResult
+from slam_env.ekf import EKFSLAM, LINEARIZATIONS, UpdateResult
 from slam_env.env import unpack_detections
 from slam_env.kernels.association_score import SCORE_NAMES, score_association
 from slam_env.layouts import LANDMARK_POST_RADIUS
@@ -85,41 +85,28 @@ from slam_env.wrappers import DEFAULT_GATE
 
 ENV_ID = "slam_env/Landmarks-v0"
 
-# A variant: the EKFSLAM keyword arguments that make it (on top of filter_kwargs).
+# A variant: the EKFSLAM keyword arguments that make it (on top of filter_kwargs), an
+# association's by each linearisation.
 # "jcbb2": JCBB with a new landmark started on its second sighting (against clutter).
 # "jcbbw": JCBB with a wide (loop-closing) pairing withheld until its landmark has been
 # paired that way in WIDE_PAIRING_SCANS consecutive scans; "jcbb2w" both.
 WIDE_PAIRING_SCANS = 3
+ASSOCIATIONS: dict[str, dict[str, Any]] = {
+    "known": {},
+    "nn": {"data_association": "nearest_neighbor"},
+    "jcbb": {"data_association": "jcbb"},
+    "jcbbw": {"data_association": "jcbb", "wide_pairing_scans": WIDE_PAIRING_SCANS},
+    "jcbb2": {"data_association": "jcbb", "new_landmark_sightings": 2},
+    "jcbb2w": {
+        "data_association": "jcbb",
+        "new_landmark_sightings": 2,
+        "wide_pairing_scans": WIDE_PAIRING_SCANS,
+    },
+}
 VARIANTS: dict[str, dict[str, Any]] = {
-    "known/standard": {},
-    "known/fej": {"linearization": "fej"},
-    "nn/standard": {"data_association": "nearest_neighbor"},
-    "nn/fej": {"data_association": "nearest_neighbor", "linearization": "fej"},
-    "jcbb/standard": {"data_association": "jcbb"},
-    "jcbb/fej": {"data_association": "jcbb", "linearization": "fej"},
-    "jcbbw/standard": {"data_association": "jcbb", "wide_pairing_scans": WIDE_PAIRING_SCANS},
-    "jcbbw/fej": {
-        "data_association": "jcbb",
-        "wide_pairing_scans": WIDE_PAIRING_SCANS,
-        "linearization": "fej",
-    },
-    "jcbb2/standard": {"data_association": "jcbb", "new_landmark_sightings": 2},
-    "jcbb2/fej": {
-        "data_association": "jcbb",
-        "new_landmark_sightings": 2,
-        "linearization": "fej",
-    },
-    "jcbb2w/standard": {
-        "data_association": "jcbb",
-        "new_landmark_sightings": 2,
-        "wide_pairing_scans": WIDE_PAIRING_SCANS,
-    },
-    "jcbb2w/fej": {
-        "data_association": "jcbb",
-        "new_landmark_sightings": 2,
-        "wide_pairing_scans": WIDE_PAIRING_SCANS,
-        "linearization": "fej",
-    },
+    f"{name}/{linearization}": {**kwargs, "linearization": linearization}
+    for name, kwargs in ASSOCIATIONS.items()
+    for linearization in LINEARIZATIONS
 }
 # The variant whose filtered trajectory and map start the smoother.
 BASELINE = "known/standard"

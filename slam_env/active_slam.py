@@ -51,7 +51,7 @@ class ActiveSLAMEnv(CoreEnv):
     for a second sighting, which keeps clutter out of the map), ``wide_pairing_scans``
     (1, or more with ``"jcbb"``: a loop-closing pairing waits for that many consecutive
     scans, see :class:`slam_env.ekf.EKFSLAM`), ``linearization``
-    (``"standard"`` | ``"fej"``),
+    (``"standard"`` | ``"fej"`` | ``"oc"``),
     ``reward_weights`` (an :class:`ActiveSLAMRewardWeights` or a dict of its fields),
     ``coverage`` (default ``True``: a
     :class:`slam_env.coverage.CoverageWrapper` adds the swept-area features, which a

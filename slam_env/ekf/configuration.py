@@ -21,7 +21,11 @@ _ASSOCIATION_CODES = {
     "jcbb": ekf_codes.JCBB,
 }
 DATA_ASSOCIATIONS = tuple(_ASSOCIATION_CODES)
-_LINEARIZATION_CODES = {"standard": ekf_codes.STANDARD, "fej": ekf_codes.FEJ}
+_LINEARIZATION_CODES = {
+    "standard": ekf_codes.STANDARD,
+    "fej": ekf_codes.FEJ,
+    "oc": ekf_codes.OC,
+}
 LINEARIZATIONS = tuple(_LINEARIZATION_CODES)
 # The association's gates by default: a landmark within the 99.9% χ² region of an
 # observation is compatible with it (as ActiveSLAM-v0's validation gate accepts it);

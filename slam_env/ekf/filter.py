@@ -40,8 +40,9 @@ wider ``new_landmark_gate``, and is discarded otherwise; with ``wide_pairing_sca
 sensor's noise: a loop closing) until its landmark has been paired that way, without a
 rival observation, in that many consecutive scans. The filter then owns the
 identities: a landmark's ID is its slot. ``linearization="fej"`` evaluates the
-Jacobians at the first estimates (:mod:`slam_env.kernels.ekf`); ``"standard"`` is the
-seeds' filter.
+Jacobians at the first estimates, ``"oc"`` takes FEJ's prediction and each measurement
+Jacobian at the latest estimate less the least change that keeps the global rotation
+unobservable (:mod:`slam_env.kernels.ekf`); ``"standard"`` is the seeds' filter.
 
 Atomic calls
 ------------
@@ -136,8 +137,8 @@ class EKFSLAM(BeliefReads):
             scans; one landmark is followed at a time. What keeps a new landmark seen
             where a mapped one is expected from being taken for it (see
             :mod:`slam_env.kernels.association`, "Wide pairings").
-        linearization: ``"standard"`` (the seeds) or ``"fej"`` (First-Estimates
-            Jacobian EKF).
+        linearization: ``"standard"`` (the seeds), ``"fej"`` (First-Estimates
+            Jacobian EKF) or ``"oc"`` (observability-constrained EKF).
 
     Use
         ``predict(u)``, ``update(z, ids) -> UpdateResult`` (``ids`` None where the

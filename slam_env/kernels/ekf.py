@@ -27,8 +27,12 @@ G at the pose the previous prediction produced (``a = −(y' − ŷ_first)``,
 produced and at the landmark's first estimate, and a new landmark's L (= −H_m⁻¹ H_x)
 at that pose and at the new landmark's first estimate, so that the linearised system keeps the
 true one's unobservable directions (global translation and rotation) and the filter
-does not turn over-confident. Means, innovations and noise Jacobians are the same in
-both.
+does not turn over-confident. The observability-constrained EKF (OC) keeps FEJ's G and
+L, but takes each H at the latest estimate, as the standard EKF does, and removes from
+it the least it must (in the Frobenius norm) for those directions to stay unobservable
+(``H N = 0``, N at the first estimates; Hesch, Kottas, Bowman & Roumeliotis, 2014): FEJ's
+constraint, with Jacobians nearer the truth than the first estimates. Means,
+innovations and noise Jacobians are the same in all three.
 
 Every call is atomic per world: a world whose step fails (bad input, an innovation
 covariance that is not positive definite, a non-finite intermediate, a covariance that
@@ -61,7 +65,6 @@ from slam_env.kernels.ekf_codes import (
     DISCARD_ID,
     DISCARDED,
     DUPLICATE_ID,
-    FEJ,
     KNOWN,
     LINEARIZATION,
     MEASUREMENT,
@@ -74,6 +77,7 @@ from slam_env.kernels.ekf_codes import (
     SEQUENTIAL,
     SINGULAR,
     SMALL_WORKSPACE,
+    STANDARD,
     TENTATIVE,
     TENTATIVE_ID,
     UNUSED,
@@ -122,7 +126,7 @@ def _predict_world(
     u: np.ndarray,
     params: np.ndarray,
     model: int,
-    fej: bool,
+    first_estimates: bool,
 ) -> int:
     """One world's prediction (seed 000 §2.1): P_xx ← G P_xx Gᵀ + R_x, P_xm ← G P_xm,
     the landmarks unchanged; the new pose is also the first estimate of this pose.
@@ -145,7 +149,7 @@ def _predict_world(
         params[NOISE + 2],
         params[NOISE + 3],
     )
-    if fej:  # G at the first estimates: the pose the last prediction produced
+    if first_estimates:  # G at the first estimates (FEJ, OC): the pose the last prediction produced
         a = first[1] - ny
         b = nx - first[0]
     p00 = P[0, 0]
@@ -229,7 +233,7 @@ def predict(
                 u[b],
                 params[b],
                 modes[b, MOTION],
-                modes[b, LINEARIZATION] == FEJ,
+                modes[b, LINEARIZATION] != STANDARD,
             )
 
 
@@ -370,7 +374,7 @@ def update(
         )
         model = modes[b, MEASUREMENT]
         sequential = modes[b, CORRECTION] == SEQUENTIAL
-        fej = modes[b, LINEARIZATION] == FEJ
+        linearization = modes[b, LINEARIZATION]
         fb = first[b]
         # np.int64(0), not 0: a literal 0 passed on would compile the callees once more.
         r = np.int64(0)
@@ -391,7 +395,7 @@ def update(
                     continue  # a new landmark
                 code = add_observation(
                     model, xw, Pb, U, r, 3 + 2 * slot, zb[j, 0], zb[j, 1], obs, C, vec, m, d,
-                    fb, fej,
+                    fb, linearization,
                 )  # fmt: skip
                 if code == SINGULAR:
                     st[j] = REJECTED  # h cannot be linearised (a landmark on the robot)
@@ -426,7 +430,7 @@ def update(
         if err == OK:
             new, err = new_landmarks(
                 xw, Pb, d, slot_of, zb, ib, k, pb, model, U, r, PR, C, obs, small[SMALL_S],
-                fb, fej,
+                fb, linearization != STANDARD,
             )  # fmt: skip
         if err == OK and not all_finite(xw, d + 2 * new):
             err = NOT_FINITE

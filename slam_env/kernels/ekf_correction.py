@@ -16,10 +16,12 @@ from slam_env.kernels import borrowing_kernel, inline_kernel
 from slam_env.kernels.ekf_codes import (
     CORRECTED,
     COV_LIMIT,
+    FEJ,
     FLOAT_MAX,
     GATE,
     NOT_FINITE,
     NOT_POSITIVE_DEFINITE,
+    OC,
     OK,
     OVERFLOW,
     Q00,
@@ -93,12 +95,14 @@ def add_observation(
     m: int,
     d: int,
     first: np.ndarray,
-    fej: bool,
+    linearization: int,
 ) -> int:
     """Observation m of a group: the landmark at rows s, s+1 of the mean ``xw``
     linearised (H into ``obs[m]``, ν into ``vec[0, 2m:2m+2]``) and its rows 2m, 2m+1
     of Cᵀ = H P at the current covariance P − Σ_{ρ<r} U[ρ]ᵀ U[ρ]. ν is taken at the
-    mean, H there too or, with ``fej``, at the first estimates ``first``.
+    mean; H there too (:data:`STANDARD`), at the first estimates ``first``
+    (:data:`FEJ`), or at the mean and then projected off the global rotation at the
+    first estimates (:data:`OC`, :func:`_constrain_rotation`).
     :data:`SINGULAR` where h cannot be linearised. (Rows are indexed, not sliced,
     here and below: a view of an array costs a reference count.)"""
     x = xw[0]
@@ -106,7 +110,7 @@ def add_observation(
     th = xw[2]
     mx = xw[s]
     my = xw[s + 1]
-    lin = first if fej else xw
+    lin = first if linearization == FEJ else xw
     lx = lin[0]
     ly = lin[1]
     lmx = lin[s]
@@ -115,6 +119,11 @@ def add_observation(
         return SINGULAR
     zh0, zh1 = observe(model, x, y, th, mx, my)
     h00, h01, h02, h03, h04, h10, h11, h12, h13, h14 = jacobian(model, lx, ly, lin[2], lmx, lmy)
+    if linearization == OC:
+        dx = first[s] - first[0]
+        dy = first[s + 1] - first[1]
+        h00, h01, h02, h03, h04 = _constrain_rotation(h00, h01, h02, h03, h04, dx, dy)
+        h10, h11, h12, h13, h14 = _constrain_rotation(h10, h11, h12, h13, h14, dx, dy)
     nu0, nu1 = innovation(model, z0, z1, zh0, zh1)
     total = nu0 + nu1 + h00 + h01 + h02 + h03 + h04 + h10 + h11 + h12 + h13 + h14
     if not math.isfinite(total):
@@ -151,6 +160,28 @@ def add_observation(
             C[a, c] -= w0 * u
             C[a + 1, c] -= w1 * u
     return OK
+
+
+@inline_kernel
+def _constrain_rotation(
+    hx: float, hy: float, hth: float, hmx: float, hmy: float, dx: float, dy: float
+) -> tuple[float, float, float, float, float]:
+    """One row h = (∂/∂x, ∂/∂y, ∂/∂θ, ∂/∂m_x, ∂/∂m_y) of H, changed as little as
+    possible (least squares) so that h N = 0 for the unobservable directions N of the
+    pose p̂ and landmark m̂ at their first estimates, δ = m̂ − p̂ = (dx, dy): the two
+    translations t_x, t_y and the rotation (−p̂_y, p̂_x, 1, −m̂_y, m̂_x). Both models'
+    rows already give h t = 0 (only m − p enters h), so the projection is onto the
+    rotation's part orthogonal to the translations, n = (δ_y/2, −δ_x/2, 1, −δ_y/2,
+    δ_x/2): h ← h − (h n) n / |n|², with h n = h_θ + h_m · (−δ_y, δ_x)."""
+    hn = hth - hmx * dy + hmy * dx
+    k = hn / (1.0 + 0.5 * (dx * dx + dy * dy))
+    return (
+        hx - k * 0.5 * dy,
+        hy + k * 0.5 * dx,
+        hth - k,
+        hmx + k * 0.5 * dy,
+        hmy - k * 0.5 * dx,
+    )
 
 
 @inline_kernel

@@ -42,7 +42,7 @@ def new_landmarks(
     LW: np.ndarray,
     NB: np.ndarray,
     first: np.ndarray,
-    fej: bool,
+    first_estimates: bool,
 ) -> tuple[int, int]:
     """The new landmarks (seed 000 §2.2), in the given order, from the corrected
     belief, without writing P: m = h⁻¹(z, pose) into ``xw[d:]``; with L = ∂h⁻¹/∂pose,
@@ -51,13 +51,14 @@ def new_landmarks(
     into NB (not yet symmetrised). ``LW`` gets (l02, l12, w00, w01, w10, w11) of each.
     Returns (new landmarks, error code).
 
-    With ``fej``, L is linearised at the first estimates, as FEJ's H is: the pose this
-    step's prediction produced (``first[:3]``) and the new landmark's own first
-    estimate m, so L = −H_m⁻¹ H_x there: [[1, 0, −(m_y − ŷ)], [0, 1, m_x − x̂]] (both
-    measurement models). At the corrected pose instead, L would map the global
-    rotation's direction at the predicted pose, (−ŷ, x̂, 1), to J(m − p̂_corrected) + J p̂
-    rather than to the landmark's own J m, and a scan that both corrects and starts
-    a landmark would give the filter information about the unobservable rotation."""
+    With ``first_estimates`` (FEJ and OC), L is linearised at the first estimates, as
+    FEJ's H is: the pose this step's prediction produced (``first[:3]``) and the new
+    landmark's own first estimate m, so L = −H_m⁻¹ H_x there: [[1, 0, −(m_y − ŷ)],
+    [0, 1, m_x − x̂]] (both measurement models). At the corrected pose instead, L would
+    map the global rotation's direction at the predicted pose, (−ŷ, x̂, 1), to
+    J(m − p̂_corrected) + J p̂ rather than to the landmark's own J m, and a scan that both
+    corrects and starts a landmark would give the filter information about the
+    unobservable rotation."""
     new = 0
     for j in range(k):
         if ids[j] >= 0 and slot_of[ids[j]] < 0:
@@ -83,7 +84,7 @@ def new_landmarks(
         lw = inverse_jacobian(model, pth, z[j, 0], z[j, 1])
         for t in range(6):
             LW[a, t] = lw[t]
-        if fej:  # L at the first estimates (see above); W as the standard EKF's
+        if first_estimates:  # L at the first estimates (see above); W as the standard EKF's
             LW[a, 0] = first[1] - my
             LW[a, 1] = mx - first[0]
         xw[d + 2 * a] = mx
