@@ -31,8 +31,9 @@ CONFIGS = [
         {"outlier_rate": 0.3, "kidnap_rate": 0.01, "preset": "cluttered"},
     ),
     ({"reward_weights": {"coverage": 20.0}}, {"scan_beams": 0, "bumper": False}),
-    # FEJ, and clutter, which a filter told the IDs leaves out.
+    # FEJ and OC, and clutter, which a filter told the IDs leaves out.
     ({"linearization": "fej"}, {"clutter_rate": 0.3}),
+    ({"linearization": "oc", "correction": "batch"}, {"motion_model": "velocity"}),
 ]
 
 
