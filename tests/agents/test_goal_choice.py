@@ -287,26 +287,30 @@ def test_goal_training_configs_are_checked():
         config_from_dict({"discovery_schedule": "remaining"})
 
 
+def tiny_goal_config(out_dir, ppo: dict | None = None, **overrides) -> dict:
+    """A goal-training config small enough for a test: two envs in small sampled worlds,
+    no checkpoints, evaluations or logs; ``ppo`` entries and ``overrides`` replace the
+    defaults."""
+    return {
+        "decisions": "goals",
+        "total_timesteps": 64,
+        "n_envs": 2,
+        "vectorization": "dummy",
+        "env_options": INFORMATION_ONLY,
+        "worlds": {"arena_sizes": [8.0], "landmark_counts": [4, 9]},
+        "max_episode_steps": 30,
+        "progress_bar": False,
+        "tensorboard": False,
+        "checkpoint_freq": 0,
+        "eval_freq": 0,
+        "out_dir": str(out_dir),
+        "ppo": {"n_steps": 32, "batch_size": 32, "n_epochs": 1, "net_arch": [8], **(ppo or {})},
+        **overrides,
+    }
+
+
 def test_training_smoke_run_then_the_policy_runs_on_every_setting_of_the_suite(tmp_path):
-    path = train(
-        {
-            "decisions": "goals",
-            "total_timesteps": 64,
-            "n_envs": 2,
-            "vectorization": "dummy",
-            "seed": 1,
-            "env_options": INFORMATION_ONLY,
-            "worlds": {"arena_sizes": [8.0], "landmark_counts": [4, 9]},
-            "max_episode_steps": 30,
-            "progress_bar": False,
-            "tensorboard": False,
-            "checkpoint_freq": 0,
-            "eval_freq": 32,
-            "eval_episodes": 1,
-            "out_dir": str(tmp_path),
-            "ppo": {"n_steps": 32, "batch_size": 32, "n_epochs": 1, "net_arch": [8]},
-        }
-    )
+    path = train(tiny_goal_config(tmp_path, seed=1, eval_freq=32, eval_episodes=1))
     assert (tmp_path / "training_summary.json").is_file()
     assert (tmp_path / "eval" / "evaluations.npz").is_file()
     assert agent_label(f"goals:{path}") == "goals:" + path.stem
@@ -323,24 +327,14 @@ def goal_policy_parameters(out_dir, seed: int) -> list[np.ndarray]:
     processes, every episode in a world drawn from the config's distribution."""
     from stable_baselines3 import PPO
 
-    path = train(
-        {
-            "decisions": "goals",
-            "total_timesteps": 64,
-            "n_envs": 2,
-            "vectorization": "subproc",
-            "seed": seed,
-            "env_options": INFORMATION_ONLY,
-            "worlds": {"arena_sizes": [8.0, 12.0], "landmark_counts": [4, 9]},
-            "max_episode_steps": 30,
-            "progress_bar": False,
-            "tensorboard": False,
-            "checkpoint_freq": 0,
-            "eval_freq": 0,
-            "out_dir": str(out_dir),
-            "ppo": {"n_steps": 32, "batch_size": 32, "n_epochs": 2, "net_arch": [8]},
-        }
+    config = tiny_goal_config(
+        out_dir,
+        ppo={"n_epochs": 2},
+        vectorization="subproc",
+        seed=seed,
+        worlds={"arena_sizes": [8.0, 12.0], "landmark_counts": [4, 9]},
     )
+    path = train(config)
     return [t.detach().numpy() for t in PPO.load(path, device="cpu").policy.parameters()]
 
 
@@ -359,26 +353,19 @@ def test_goal_training_keeps_the_learners_torch_threads(tmp_path):
     import torch
 
     before = torch.get_num_threads()
+    config = tiny_goal_config(
+        tmp_path,
+        ppo={"n_steps": 16, "batch_size": 16},
+        total_timesteps=16,
+        n_envs=1,
+        vectorization="subproc",
+        start_method="fork",
+        torch_threads=2,
+        worlds={"arena_sizes": [8.0], "landmark_counts": [4]},
+        max_episode_steps=20,
+    )
     try:
-        train(
-            {
-                "decisions": "goals",
-                "total_timesteps": 16,
-                "n_envs": 1,
-                "vectorization": "subproc",
-                "start_method": "fork",
-                "torch_threads": 2,
-                "env_options": INFORMATION_ONLY,
-                "worlds": {"arena_sizes": [8.0], "landmark_counts": [4]},
-                "max_episode_steps": 20,
-                "progress_bar": False,
-                "tensorboard": False,
-                "checkpoint_freq": 0,
-                "eval_freq": 0,
-                "out_dir": str(tmp_path),
-                "ppo": {"n_steps": 16, "batch_size": 16, "n_epochs": 1, "net_arch": [8]},
-            }
-        )
+        train(config)
         assert torch.get_num_threads() == 2  # the workers' envs set theirs, not the learner's
     finally:
         torch.set_num_threads(before)

@@ -45,17 +45,12 @@ def numeric_jacobian(f, x: np.ndarray, angle_rows: tuple[int, ...] = ()) -> np.n
 
 
 def unobservable_directions(pose: np.ndarray, landmark: np.ndarray) -> np.ndarray:
-    """(5, 3): the global x and y translations and the rotation about the origin, as
-    changes of (x, y, θ, m_x, m_y) at these points."""
-    return np.array(
-        [
-            [1.0, 0.0, -pose[1]],
-            [0.0, 1.0, pose[0]],
-            [0.0, 0.0, 1.0],
-            [1.0, 0.0, -landmark[1]],
-            [0.0, 1.0, landmark[0]],
-        ]
-    )
+    """(5, 3): the global x and y translations and the rotation about the origin
+    (:func:`_rotation_direction`), as changes of (x, y, θ, m_x, m_y) at these points."""
+    N = np.zeros((5, 3))
+    N[[0, 3], 0] = N[[1, 4], 1] = 1.0
+    N[:, 2] = _rotation_direction(pose, [landmark])
+    return N
 
 
 class DenseFirstEstimates:
