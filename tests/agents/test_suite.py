@@ -13,7 +13,7 @@ from agents.suite import SUITES, suite_settings
 from agents.suite_metrics import steps_to_share, suite_metrics
 
 
-def _record(known, entropy, collision, n=4):
+def _record(known, entropy, collision, n=4, map_rmse=None):
     t = len(known)
     return EpisodeRecord(
         seed=0,
@@ -24,7 +24,7 @@ def _record(known, entropy, collision, n=4):
         landmarks_known=np.asarray(known, float),
         pose_error=np.zeros(t),
         pose_nees=np.zeros(t),
-        map_rmse=np.full(t, 0.1),
+        map_rmse=np.full(t, 0.1) if map_rmse is None else np.asarray(map_rmse, float),
         collision=np.asarray(collision, bool),
         rewards=np.zeros(t - 1),
     )
@@ -46,6 +46,29 @@ def test_suite_metrics_of_a_record():
     assert m["entropy_auc"] == pytest.approx((9 + 6 + 4 + 3) / 4)  # trapezoids / steps
     assert m["collisions_per_100"] == pytest.approx(50.0)  # step 0 (the reset) not counted
     assert (m["final_entropy"], m["map_rmse"]) == (2.0, 0.1)
+
+
+def test_suite_metrics_read_the_last_step():
+    rec = _record([0, 1, 3], [5, 4, 3], [0, 0, 0], map_rmse=[np.nan, 0.4, 0.2])
+    m = suite_metrics(rec)
+    assert m["mapped_share"] == 0.75  # the landmark found on the last step counts
+    assert m["map_rmse"] == 0.2  # the final map, not an earlier one
+    assert (m["steps_to_50"], m["steps_to_90"]) == (2, 2)
+    assert m["reached_90"] == 0.0  # 3 of 4 is below 90%: censored at the length
+
+
+@pytest.mark.parametrize(
+    ("known", "entropy", "collision", "auc", "per_100"),
+    [
+        ([1], [7.0], [1], 7.0, 0.0),  # no step: the entropy after reset, no collision
+        ([1, 2], [7.0, 3.0], [1, 1], 5.0, 100.0),  # one step: one trapezoid
+    ],
+)
+def test_suite_metrics_of_the_shortest_episodes(known, entropy, collision, auc, per_100):
+    m = suite_metrics(_record(known, entropy, collision, n=2))
+    assert m["entropy_auc"] == auc
+    assert m["collisions_per_100"] == per_100
+    assert m["final_entropy"] == entropy[-1]
 
 
 def test_the_default_suite_covers_the_issue_settings():
