@@ -64,6 +64,8 @@ def test_share_in_band_of_a_consistent_and_an_overconfident_filter():
     assert share_in_nees_band([np.r_[0.0, np.full(50, 3.0)]] * 4) == 1.0
     assert share_in_nees_band([np.r_[0.0, np.full(50, 3.0)]], first_step=0) == 50 / 51
     assert math.isnan(share_in_nees_band([[0.0]]))
+    # Step 1 is the first counted: out of band there, inside at step 2.
+    assert share_in_nees_band([[0.0, 100.0, 3.0]]) == 0.5
 
 
 def _band_patch(ax):
