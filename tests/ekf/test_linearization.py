@@ -8,8 +8,6 @@ true one cannot), and ``"standard"`` against the dense textbook filter of the se
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 import pytest
 
@@ -21,14 +19,8 @@ from slam_env.ekf.models import (
     velocity_control_cov,
 )
 from slam_env.geometry import wrap_angle
-from tests.ekf.test_filter_reference import COMBOS, run_against_dense
+from tests.ekf.test_filter_reference import ALPHAS, COMBOS, CONTROL_NOISE, Q, run_against_dense
 
-ALPHAS = (0.02, 0.01, 0.02, 0.01)
-CONTROL_NOISE = (0.02, 0.01, 0.01, 0.05)
-Q = {
-    "range_bearing": np.array([[0.04**2, 1e-5], [1e-5, math.radians(2.0) ** 2]]),
-    "cartesian": np.array([[0.05**2, 2e-4], [2e-4, 0.03**2]]),
-}
 STEP = 1e-6  # central differences: error O(STEP²) on smooth models
 
 
