@@ -529,6 +529,12 @@ def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
     args = parser.parse_args(argv)
     if args.runs < 1 or args.steps < 1 or not args.odometry_scale > 0.0:
         parser.error("--runs and --steps must be >= 1, --odometry-scale > 0")
+    if args.seed < 0:
+        parser.error("--seed must be >= 0 (episode r is reset with seed + r)")
+    try:  # the env's own checks (ranges, the noise budget), before any episode is run
+        gym.make(ENV_ID, **env_options(args.odometry_scale, args.clutter)).close()
+    except ValueError as err:
+        parser.error(f"--odometry-scale {args.odometry_scale}, --clutter {args.clutter}: {err}")
     unknown = [v for v in args.variants if v not in ROWS]
     if unknown:
         parser.error(f"unknown variants {unknown}; choose from {list(ROWS)}")
