@@ -6,7 +6,7 @@
                       [--learner-device cpu|gpu] [--num-learners L]   (the last five: rllib)
     slam-env evaluate --agents random,frontier,infogain,goals,ppo:PATH [--episodes 20]
                       [--seed 0] [--out DIR] [--max-steps N] [--env-option KEY=VALUE ...]
-    slam-env evaluate --agents ... --suite default|smoke [--out DIR]
+    slam-env evaluate --agents ... --suite default|smoke [--episodes 3] [--seed 10000] [--out DIR]
     slam-env demo     [--agent SPEC] [--seed S] [--out DIR] [--no-gif] [--max-steps N]
 
     slam-env --version
@@ -155,8 +155,17 @@ def build_parser() -> argparse.ArgumentParser:
         help="comma-separated agent specs: random, frontier, infogain, ppo, ppo:PATH, "
         "rllib:PATH, goals, goals:PATH",
     )
-    p.add_argument("--episodes", type=_positive_int, default=20, help="episodes per agent")
-    p.add_argument("--seed", type=_non_negative_int, default=0, help="episode i uses seed+i")
+    p.add_argument(
+        "--episodes",
+        type=_positive_int,
+        help="episodes per agent (default 20); with --suite, per setting (default the "
+        "suite's own: 3)",
+    )
+    p.add_argument(
+        "--seed",
+        type=_non_negative_int,
+        help="episode i uses seed+i (default 0; with --suite the suite's own: 10000)",
+    )
     p.add_argument("--out", type=str, default="out/eval", help="output folder")
     p.add_argument("--max-steps", type=_positive_int, help="episode length (default 500)")
     p.add_argument("--env-option", type=_env_option, action="append", help=env_help)
@@ -164,7 +173,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--suite",
         help="run a fixed suite of world settings × seeds instead (default, smoke; see "
-        "agents/suite.py); --episodes, --seed, --max-steps and --env-option do not apply",
+        "agents/suite.py); --max-steps and --env-option do not apply",
     )
 
     p = sub.add_parser(
@@ -285,10 +294,10 @@ def _run_evaluate(args: argparse.Namespace) -> int:
     check_writable_dir(args.out)
     if args.suite is not None:
         return _run_suite(args)
+    given = {"episodes": args.episodes, "seed": args.seed}  # None: evaluate's defaults
     result = evaluate(
         args.agents,
-        episodes=args.episodes,
-        seed=args.seed,
+        **{name: value for name, value in given.items() if value is not None},
         env_options=_options(args.env_option),
         out_dir=args.out,
         max_steps=args.max_steps,
@@ -305,7 +314,14 @@ def _run_suite(args: argparse.Namespace) -> int:
     suite_settings(args.suite)  # an unknown name, before anything runs
     if args.env_option or args.max_steps is not None:
         raise ValueError("--suite fixes its settings: drop --env-option and --max-steps")
-    result = run_suite(args.agents, args.suite, args.out, progress=not args.no_progress)
+    result = run_suite(
+        args.agents,
+        args.suite,
+        args.out,
+        episodes=args.episodes,
+        seed=args.seed,
+        progress=not args.no_progress,
+    )
     for name, path in result.files.items():
         print(f"{name}: {path}")
     return 0

@@ -79,9 +79,43 @@ def test_the_default_suite_covers_the_issue_settings():
     ]  # fmt: skip
     steps = {s.name: s.steps for s in suite_settings("default")}
     assert (steps["arena_8m"], steps["default"], steps["arena_32m"]) == (250, 500, 1000)
+    options = {s.name: s.env_options for s in suite_settings("default")}
+    assert options["default"] == {}
+    assert [options[p]["preset"] for p in ("open", "cluttered", "rooms")] == [
+        "open", "cluttered", "rooms"
+    ]  # fmt: skip
+    assert (options["arena_8m"]["width"], options["arena_32m"]["height"]) == (8.0, 32.0)
+    assert (options["landmarks_10"], options["landmarks_60"]) == (
+        {"n_landmarks": 10}, {"n_landmarks": 60}
+    )  # fmt: skip
+    assert options["short_range"] == {"max_range": 2.5}
+    assert options["sensor_360"]["fov"] == pytest.approx(2.0 * np.pi)
     assert set(SUITES) >= {"default", "smoke"}
     with pytest.raises(ValueError, match="unknown suite"):
         suite_settings("huge")
+
+
+def test_the_table_marks_each_settings_best_and_counts_wins_head_to_head():
+    from agents.suite import suite_markdown
+
+    def row(setting, agent, s90, h):
+        return {"setting": setting, "agent": agent, "steps_to_90": s90, "final_entropy": h,
+                "mapped_share": 1.0, "steps_to_50": 1.0, "steps_to_100": 2.0,
+                "entropy_auc": 0.0, "collisions_per_100": 0.0, "map_rmse": 0.1}  # fmt: skip
+
+    rows = [
+        row("a", "x", 100.0, -5.0), row("a", "y", 120.0, -7.0),
+        row("b", "x", 90.0, -3.0), row("b", "y", 80.0, -3.0),
+        row("c", "x", 50.0, -1.0), row("c", "y", 60.0, -2.0),
+    ]  # fmt: skip
+    table = suite_markdown(rows, ["x", "y"], "t")
+    lines = {tuple(c.strip() for c in ln.split("|")[1:3]): ln for ln in table.splitlines()}
+    assert "**100**" in lines[("a", "x")] and "**-7.0**" in lines[("a", "y")]
+    assert "**120**" not in lines[("a", "y")] and "**-5.0**" not in lines[("a", "x")]
+    assert "**80**" in lines[("b", "y")] and "**-3.0**" not in lines[("b", "y")]  # tied: none
+    head = table[table.index("Head to head") :]
+    assert "| x | – | 2 / 0 |" in head  # x faster in a and c, never less certain
+    assert "| y | 1 / 2 | – |" in head  # y faster in b, less certain in a and c
 
 
 def test_cli_suite_runs_end_to_end_and_writes_its_files(tmp_path, capsys):
@@ -98,6 +132,63 @@ def test_cli_suite_runs_end_to_end_and_writes_its_files(tmp_path, capsys):
     table = (out / "suite.md").read_text()
     assert "| default | frontier |" in table and "Head to head" in table
     assert "suite_md:" in capsys.readouterr().out
+
+
+def test_cli_suite_takes_more_episodes_and_other_seeds(tmp_path):
+    out = tmp_path / "suite"
+    assert main(["evaluate", "--agents", "random", "--suite", "smoke", "--episodes", "2",
+                 "--seed", "7", "--out", str(out), "--no-progress"]) == 0  # fmt: skip
+    results = json.loads((out / "results.json").read_text())
+    assert results["seed"] == 7
+    assert [s["episodes"] for s in results["settings"]] == [2] * len(SUITES["smoke"]())
+    assert [r["episodes"] for r in results["rows"]] == [2] * len(SUITES["smoke"]())
+    for setting in SUITES["smoke"]():
+        seeds = [e["seed"] for e in results["episodes"] if e["setting"] == setting.name]
+        assert seeds == [7, 8], setting.name
+
+
+@pytest.mark.parametrize(
+    ("counts", "message"),
+    [
+        ({"episodes": 0}, "episodes must be an int >= 1"),
+        ({"episodes": True}, "episodes must be an int >= 1"),
+        ({"episodes": 2.0}, "episodes must be an int >= 1"),
+        ({"seed": -1}, "seed must be an int >= 0"),
+        ({"seed": "7"}, "seed must be an int >= 0"),
+    ],
+)
+def test_run_suite_refuses_bad_counts_before_anything_runs(tmp_path, counts, message):
+    from agents.suite import run_suite
+
+    with pytest.raises(ValueError, match=message):
+        run_suite(["random"], "smoke", tmp_path, progress=False, verbose=False, **counts)
+    assert not any(tmp_path.iterdir())
+
+
+def test_cli_evaluate_leaves_the_counts_it_was_not_given_to_the_runners(monkeypatch, tmp_path):
+    import agents.evaluation
+    import agents.suite
+
+    calls = []
+
+    def record(name):
+        def run(*args, **kwargs):
+            calls.append((name, {k: kwargs[k] for k in ("episodes", "seed") if k in kwargs}))
+            raise SystemExit(0)
+
+        return run
+
+    monkeypatch.setattr(agents.evaluation, "evaluate", record("evaluate"))
+    monkeypatch.setattr(agents.suite, "run_suite", record("suite"))
+    argv = ["evaluate", "--agents", "random", "--out", str(tmp_path)]
+    for extra in ([], ["--suite", "smoke"], ["--episodes", "4", "--seed", "9"]):
+        with pytest.raises(SystemExit):
+            main([*argv, *extra])
+    assert calls == [
+        ("evaluate", {}),  # evaluate's own defaults: 20 episodes from seed 0
+        ("suite", {"episodes": None, "seed": None}),  # the suite's own: 3 from 10000
+        ("evaluate", {"episodes": 4, "seed": 9}),
+    ]
 
 
 def test_cli_suite_refuses_bad_input(tmp_path, capsys):

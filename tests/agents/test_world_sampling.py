@@ -8,7 +8,7 @@ import pytest
 
 from agents.ppo import load_ppo_agent
 from agents.registry import make_agent, make_env
-from agents.suite import suite_settings
+from agents.suite import agent_observation, suite_settings
 from agents.training import ConfigError, config_from_dict, train
 from agents.world_sampling import WorldDistribution, WorldSamplingVecEnv, episode_length
 from slam_env.local_observation import local_space
@@ -132,6 +132,9 @@ def test_training_smoke_run_with_world_sampling(tmp_path):
     assert set(local_space().spaces) <= set(agent.observation_space.spaces)
     assert agent.observation_space == local_space_with_extras()
     assert (tmp_path / "training_summary.json").is_file()
+    # The suite gives it the local observation it was trained on; other agents any.
+    assert agent_observation(f"ppo: {path}") == "local"
+    assert agent_observation("ppo") is None and agent_observation("frontier") is None
     # The policy loads and acts on every setting of the default suite.
     for setting in suite_settings("default"):
         env = make_env({**setting.env_options, "observation": "local"}, 3)
