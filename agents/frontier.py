@@ -7,14 +7,19 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from scipy import ndimage
 
-from agents.grid_search import dijkstra, path_from_parents
+from agents.grid_search import dijkstra, nearest_passable, path_from_parents
 from agents.heuristic import HeuristicAgent, HeuristicParams
 from agents.path_control import ControllerParams, PathFollower, unicycle_control
 from agents.sensor_sweep import box_sum
 from slam_env.geometry import wrap_angle
 
 EXPLORE, LOCALISE, REFINE = "explore", "localise", "refine"
+#: m², a reachable part of the planning grid smaller than this is a pocket to leave,
+#: toward the nearest free cell within POCKET_EXIT cells of a part at least this large.
+POCKET_AREA = 1.0
+POCKET_EXIT = 8
 
 
 @dataclass(frozen=True)
@@ -217,10 +222,26 @@ class FrontierAgent(HeuristicAgent):
 
     # ------------------------------------------------------------------ planning
     def _paths_from(self, pose: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Path lengths (m) over the planning grid from ``pose``, and the parents."""
+        """Path lengths (m) over the planning grid from ``pose``, and the parents.
+
+        The robot can squeeze into a pocket: a few free cells that the inflated map
+        walls off from the rest (it fits between obstacles closer than twice the
+        inflation). Searched from there, nothing is reachable and the robot would stand
+        still for good; the search then starts from the nearest free cell outside the
+        pocket, and the path from the robot's pose to it leads out the way it came in."""
         mem = self._memory
+        res = mem.grid.resolution
         start = mem.start_cell(pose)
-        return dijkstra(mem.free, [start], resolution=mem.grid.resolution, cell_cost=mem.cell_cost)
+        dist, parent = dijkstra(mem.free, [start], resolution=res, cell_cost=mem.cell_cost)
+        if np.count_nonzero(np.isfinite(dist)) * res * res < POCKET_AREA:
+            # Moves never cut corners, so the 4-connected parts are what a search reaches.
+            parts, _ = ndimage.label(mem.free)
+            sizes = np.bincount(parts.ravel()) * res * res
+            sizes[0] = 0.0  # the blocked cells
+            escape = nearest_passable(sizes[parts] >= POCKET_AREA, start, POCKET_EXIT)
+            if escape is not None:
+                return dijkstra(mem.free, [escape], resolution=res, cell_cost=mem.cell_cost)
+        return dist, parent
 
     def _plan(self, pose: np.ndarray, paths: tuple[np.ndarray, np.ndarray] | None = None) -> None:
         """Pick the goal of the current mode and the path to it (``paths``: those of

@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 
 from agents.base import Agent
-from agents.frontier import EXPLORE, LOCALISE, FrontierAgent, FrontierParams
+from agents.frontier import EXPLORE, LOCALISE, POCKET_AREA, FrontierAgent, FrontierParams
+from agents.goal_choice import GoalChoiceAgent
 from tests.agents.exploration_runs import (
     ENV_ID,
     assert_beats_random_on_default_episodes,
@@ -86,6 +87,39 @@ def test_closes_a_loop_when_the_pose_is_uncertain():
             break
     assert seen_localise
     assert agent.mode in (EXPLORE, LOCALISE)
+
+
+@pytest.mark.parametrize("agent_class", [FrontierAgent, GoalChoiceAgent])
+def test_a_robot_walled_in_by_the_inflated_map_plans_its_way_out(agent_class):
+    """Squeezed between obstacles closer than twice the planner's inflation, the robot
+    stands in a pocket of free cells that no search leaves (moves never cut corners, so
+    a diagonal neighbour is walled off too): the search starts from the nearest free
+    cell of a part larger than POCKET_AREA instead, and so reaches the open map."""
+    env = gym.make(ENV_ID, preset="open")
+    extra = {"policy": lambda features: 0} if agent_class is GoalChoiceAgent else {}
+    agent = agent_class(env, seed=0, **extra)
+    obs, _ = env.reset(seed=1)
+    agent.predict(obs, episode_start=True)
+    mem = agent.memory
+    pose = env.unwrapped.filter.pose
+    i, j = mem.grid.cell_of(pose[0], pose[1])
+    step = 1 if i + 8 < mem.free.shape[0] else -1  # toward the side with room
+    free = np.zeros_like(mem.free)
+    free[i, j] = free[i + step, j + 1] = True  # the robot's cell and a diagonal pocket
+    free[i + 3 * step, j - 2 : j + 3] = True  # a part too small to count as open
+    open_rows = slice(i + 5 * step, i + 9 * step, step)
+    free[open_rows, :] = True
+    mem.free = free
+    cells = np.count_nonzero(free[open_rows, :])
+    assert cells * mem.grid.resolution**2 >= POCKET_AREA
+
+    dist, _ = agent._paths_from(pose)
+    assert np.isfinite(dist[open_rows, :]).all() and dist[i + 5 * step, j] == 0.0
+    assert np.count_nonzero(np.isfinite(dist)) == cells  # from there, the open part only
+    # Once the robot has reached open space, it searches from its own cell again.
+    free[i + step : i + 5 * step : step, j] = True
+    dist, _ = agent._paths_from(pose)
+    assert dist[i, j] == 0.0 and np.isfinite(dist[open_rows, :]).all()
 
 
 def test_runs_in_a_world_with_inner_walls():
