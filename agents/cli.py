@@ -31,6 +31,7 @@ from typing import Any, NoReturn
 import yaml
 
 import slam_env
+from agents.arguments import non_negative_int, positive_int
 from agents.training import VECTORIZATIONS
 
 PROG = "slam-env"
@@ -83,25 +84,6 @@ def check_writable_dir(path: str | Path, what: str = "--out") -> None:
         ) from None
 
 
-def _int_at_least(minimum: int):
-    """An argparse type: an integer no smaller than ``minimum``."""
-
-    def parse(text: str) -> int:
-        try:
-            value = int(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"expected an integer, got {text!r}") from None
-        if value < minimum:
-            raise argparse.ArgumentTypeError(f"must be >= {minimum}, got {value}")
-        return value
-
-    return parse
-
-
-_positive_int = _int_at_least(1)
-_non_negative_int = _int_at_least(0)
-
-
 def _env_option(text: str) -> tuple[str, Any]:
     key, sep, raw = text.partition("=")
     key = key.strip()
@@ -131,15 +113,15 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("train", help="train a PPO policy", description="Train PPO.")
     p.add_argument("--config", type=Path, help="training config YAML (default: ppo_default.yaml)")
-    p.add_argument("--total-steps", type=_positive_int, help="env steps to train for")
-    p.add_argument("--n-envs", type=_positive_int, help="sub-envs stepped together")
+    p.add_argument("--total-steps", type=positive_int, help="env steps to train for")
+    p.add_argument("--n-envs", type=positive_int, help="sub-envs stepped together")
     p.add_argument(
         "--vectorization",
         choices=VECTORIZATIONS,
         help="native: one vector env steps them all (default); subproc: a process each; "
         "dummy: one after the other",
     )
-    p.add_argument("--seed", type=_non_negative_int, help="training seed")
+    p.add_argument("--seed", type=non_negative_int, help="training seed")
     p.add_argument("--out", type=str, help="output folder (model, config, logs)")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     _add_rllib_arguments(p)
@@ -157,17 +139,17 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument(
         "--episodes",
-        type=_positive_int,
+        type=positive_int,
         help="episodes per agent (default 20); with --suite, per setting (default the "
         "suite's own: 3)",
     )
     p.add_argument(
         "--seed",
-        type=_non_negative_int,
+        type=non_negative_int,
         help="episode i uses seed+i (default 0; with --suite the suite's own: 10000)",
     )
     p.add_argument("--out", type=str, default="out/eval", help="output folder")
-    p.add_argument("--max-steps", type=_positive_int, help="episode length (default 500)")
+    p.add_argument("--max-steps", type=positive_int, help="episode length (default 500)")
     p.add_argument("--env-option", type=_env_option, action="append", help=env_help)
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.add_argument(
@@ -182,10 +164,10 @@ def build_parser() -> argparse.ArgumentParser:
         description="One episode of an agent on the default world: GIF, map PNG, metrics.",
     )
     p.add_argument("--agent", type=str, help="agent spec (default: the best shipped agent)")
-    p.add_argument("--seed", type=_non_negative_int, default=0, help="world seed")
+    p.add_argument("--seed", type=non_negative_int, default=0, help="world seed")
     p.add_argument("--out", type=str, default="out", help="output folder")
     p.add_argument("--no-gif", action="store_true", help="skip the animated GIF")
-    p.add_argument("--max-steps", type=_positive_int, help="episode length (default 500)")
+    p.add_argument("--max-steps", type=positive_int, help="episode length (default 500)")
     p.add_argument("--env-option", type=_env_option, action="append", help=env_help)
     return parser
 
@@ -212,15 +194,15 @@ def _add_rllib_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--address", type=str, help="rllib: the Ray cluster to join (default: RAY_ADDRESS or local)"
     )
-    p.add_argument("--num-env-runners", type=_non_negative_int, help="rllib: EnvRunners (1)")
+    p.add_argument("--num-env-runners", type=non_negative_int, help="rllib: EnvRunners (1)")
     p.add_argument(
         "--num-envs-per-runner",
-        type=_positive_int,
+        type=positive_int,
         help="rllib: sub-envs each (the config's n_envs)",
     )
     p.add_argument("--learner-device", choices=("cpu", "gpu"), help="rllib: the learners' device")
     p.add_argument(
-        "--num-learners", type=_non_negative_int, help="rllib: learner actors (0: in this process)"
+        "--num-learners", type=non_negative_int, help="rllib: learner actors (0: in this process)"
     )
 
 

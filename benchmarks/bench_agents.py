@@ -27,6 +27,7 @@ from dijkstra_reference import reference_dijkstra
 
 import agents.frontier
 import agents.infogain
+from agents.arguments import positive_int
 from agents.evaluation import run_episode
 from agents.exploration_memory import ExplorationMemory
 from agents.grid_search import dijkstra
@@ -110,12 +111,10 @@ def episode_time(spec: str, episodes: int, repeats: int, python_search: bool) ->
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--episodes", type=int, default=3)
-    parser.add_argument("--searches", type=int, default=20)
-    parser.add_argument("--repeats", type=int, default=2)
+    parser.add_argument("--episodes", type=positive_int, default=3)
+    parser.add_argument("--searches", type=positive_int, default=20)
+    parser.add_argument("--repeats", type=positive_int, default=2)
     args = parser.parse_args()
-    if min(args.episodes, args.searches, args.repeats) < 1:
-        parser.error("--episodes, --searches and --repeats must be >= 1")
 
     fast, slow = search_times(args.searches, args.repeats)
     print(

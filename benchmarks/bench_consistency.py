@@ -72,6 +72,7 @@ from ideal_ekf import IdealEKF
 from smoother import Episode, smooth
 
 import slam_env  # noqa: F401  (registers the env IDs)
+from agents.arguments import non_negative_int, positive_int
 from agents.grid_map import GridMap
 from agents.grid_search import astar, nearest_passable
 from agents.path_control import ControllerParams, PathFollower
@@ -515,10 +516,12 @@ def print_table(
 
 def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--runs", type=int, default=30, help="Monte Carlo episodes")
-    parser.add_argument("--steps", type=int, default=500, help="steps per episode")
+    parser.add_argument("--runs", type=positive_int, default=30, help="Monte Carlo episodes")
+    parser.add_argument("--steps", type=positive_int, default=500, help="steps per episode")
     parser.add_argument("--odometry-scale", type=float, default=1.0, help="multiplies α1..α4")
-    parser.add_argument("--seed", type=int, default=0, help="episode r is reset with seed + r")
+    parser.add_argument(
+        "--seed", type=non_negative_int, default=0, help="episode r is reset with seed + r"
+    )
     parser.add_argument(
         "--variants",
         nargs="+",
@@ -527,10 +530,8 @@ def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
     )
     parser.add_argument("--clutter", type=float, default=0.0, help="the env's clutter_rate")
     args = parser.parse_args(argv)
-    if args.runs < 1 or args.steps < 1 or not args.odometry_scale > 0.0:
-        parser.error("--runs and --steps must be >= 1, --odometry-scale > 0")
-    if args.seed < 0:
-        parser.error("--seed must be >= 0 (episode r is reset with seed + r)")
+    if not args.odometry_scale > 0.0:
+        parser.error(f"--odometry-scale must be > 0, got {args.odometry_scale}")
     try:  # the env's own checks (ranges, the noise budget), before any episode is run
         gym.make(ENV_ID, **env_options(args.odometry_scale, args.clutter)).close()
     except ValueError as err:

@@ -19,6 +19,7 @@ import time
 
 import numpy as np
 
+from agents.arguments import positive_int
 from slam_env.config import SensorConfig
 from slam_env.coverage import CoverageGrid
 
@@ -60,10 +61,10 @@ def run(grid: CoverageGrid, poses: np.ndarray, episode: int) -> float:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--worlds", type=int, default=64)
-    parser.add_argument("--steps", type=int, default=2000)
-    parser.add_argument("--repeats", type=int, default=3)
-    parser.add_argument("--episode", type=int, default=500)
+    parser.add_argument("--worlds", type=positive_int, default=64)
+    parser.add_argument("--steps", type=positive_int, default=2000)
+    parser.add_argument("--repeats", type=positive_int, default=3)
+    parser.add_argument("--episode", type=positive_int, default=500)
     args = parser.parse_args()
     poses = random_walks(args.worlds, args.steps, np.random.default_rng(0))
     grid = CoverageGrid.for_sensor(ARENA, ARENA, SensorConfig(), worlds=args.worlds)

@@ -25,6 +25,7 @@ from typing import Any
 import gymnasium as gym
 
 import slam_env  # noqa: F401  (registers the env IDs)
+from agents.arguments import positive_int
 from slam_env.active_slam import DEFAULT_SCAN_BEAMS
 
 VECTOR_IDS = {"Landmarks": "slam_env/Landmarks-v0", "ActiveSLAM": "slam_env/ActiveSLAM-v0"}
@@ -88,8 +89,8 @@ class TimedVector(Timed):
 
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--steps", type=int, default=20_000)
-    parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--steps", type=positive_int, default=20_000)
+    parser.add_argument("--repeats", type=positive_int, default=3)
     parser.add_argument(
         "--wrapped",
         action="store_true",
@@ -97,7 +98,7 @@ def main(argv: list[str] | None = None) -> None:
     )
     parser.add_argument(
         "--vector",
-        type=int,
+        type=positive_int,
         nargs="*",
         default=[8, 64, 256],
         help="sub-env counts of the native vector envs (none: no vector rows)",
@@ -107,7 +108,7 @@ def main(argv: list[str] | None = None) -> None:
     )
     parser.add_argument(
         "--vector-steps",
-        type=int,
+        type=positive_int,
         default=600,
         help="vector steps a round (default 600: past the 500-step episodes, so the "
         "resets are paid as in the single-env rows)",

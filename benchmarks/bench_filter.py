@@ -45,6 +45,8 @@ from functools import partial
 from pathlib import Path
 from typing import Any
 
+from agents.arguments import non_negative_int, positive_int  # argparse only: no numpy yet
+
 ROOT = Path(__file__).resolve().parents[1]
 ALPHAS = (0.01, 0.005, 0.01, 0.005)
 RANGE_STD, BEARING_STD = 0.05, 0.0175
@@ -216,15 +218,15 @@ def compile_times() -> tuple[float, float]:
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="short timings (a smoke run)")
-    parser.add_argument("--sizes", type=int, nargs="+", default=[10, 20, 50, 100, 200])
+    parser.add_argument("--sizes", type=positive_int, nargs="+", default=[10, 20, 50, 100, 200])
     parser.add_argument("--correction", choices=["sequential", "batch"], default="sequential")
     parser.add_argument("--baseline", default="d380797", help="git revision to compare with")
-    parser.add_argument("--threads", type=int, default=1, help="BLAS threads (default 1)")
-    parser.add_argument("--rounds", type=int, default=None, help="timed blocks per kind")
+    parser.add_argument("--threads", type=positive_int, default=1, help="BLAS threads (default 1)")
+    parser.add_argument("--rounds", type=positive_int, default=None, help="timed blocks per kind")
     parser.add_argument("--clock", choices=sorted(CLOCKS), default="wall")
     parser.add_argument(
         "--cpu",
-        type=int,
+        type=non_negative_int,
         default=None,
         help="the CPU both processes run on (default: the lowest this one may use)",
     )

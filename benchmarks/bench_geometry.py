@@ -21,6 +21,7 @@ from collections.abc import Callable
 import numpy as np
 import pymunk
 
+from agents.arguments import positive_int
 from slam_env.config import RobotConfig, WorldConfig
 from slam_env.kernels.geometry import empty_geometry, set_world
 from slam_env.kernels.raycast import lines_of_sight, ray_fractions
@@ -98,8 +99,8 @@ def compare(name: str, layout: Layout, n: int, repeats: int, rng: np.random.Gene
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--queries", type=int, default=4000)
-    parser.add_argument("--repeats", type=int, default=5)
+    parser.add_argument("--queries", type=positive_int, default=4000)
+    parser.add_argument("--repeats", type=positive_int, default=5)
     args = parser.parse_args()
     rng = np.random.default_rng(0)
     worlds = {

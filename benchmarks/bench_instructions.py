@@ -32,6 +32,7 @@ import subprocess
 import sys
 from concurrent.futures import ThreadPoolExecutor
 
+from agents.arguments import positive_int
 from slam_env.active_slam import DEFAULT_SCAN_BEAMS
 
 # Count only inside sys.call_tracing, which the child calls once, around the counted
@@ -136,8 +137,8 @@ def count(env_id: str, options: dict, num_envs: int, steps: int, warmup: int) ->
 
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--steps", type=int, default=250)
-    parser.add_argument("--warmup", type=int, default=100)
+    parser.add_argument("--steps", type=positive_int, default=250)
+    parser.add_argument("--warmup", type=positive_int, default=100)
     parser.add_argument(
         "--only",
         nargs="+",
@@ -148,8 +149,6 @@ def main(argv: list[str] | None = None) -> None:
     )
     args = parser.parse_args(argv)
     envs = {label: ENVS[label] for label in args.only}
-    if args.steps < 1 or args.warmup < 1:
-        parser.error("--steps and --warmup must be at least 1")
     if shutil.which("valgrind") is None:
         sys.exit("valgrind is not installed (Debian: apt install valgrind)")
 

@@ -26,6 +26,7 @@ import statistics
 import time
 from typing import Any
 
+from agents.arguments import positive_int
 from agents.training import load_config, make_train_vec_env
 
 
@@ -83,9 +84,13 @@ def rllib_sampler(algo: Any, runners: int, steps: int) -> Any:
 
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--steps", type=int, default=4096, help="env steps per sampler a run")
-    parser.add_argument("--repeats", type=int, default=3, help="runs per row")
-    parser.add_argument("--n-envs", type=int, help="sub-envs per sampler (the config's n_envs)")
+    parser.add_argument(
+        "--steps", type=positive_int, default=4096, help="env steps per sampler a run"
+    )
+    parser.add_argument("--repeats", type=positive_int, default=3, help="runs per row")
+    parser.add_argument(
+        "--n-envs", type=positive_int, help="sub-envs per sampler (the config's n_envs)"
+    )
     args = parser.parse_args(argv)
 
     import ray

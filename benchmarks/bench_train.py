@@ -24,6 +24,7 @@ from pathlib import Path
 
 import yaml
 
+from agents.arguments import positive_int
 from agents.training import load_config
 
 # label -> (vectorization, n_envs)
@@ -61,8 +62,8 @@ def run(mode: str, n_envs: int, steps: int, rollout: int, out: Path) -> dict:
 
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--steps", type=int, default=20_000, help="env steps per run")
-    parser.add_argument("--repeats", type=int, default=2, help="runs per mode")
+    parser.add_argument("--steps", type=positive_int, default=20_000, help="env steps per run")
+    parser.add_argument("--repeats", type=positive_int, default=2, help="runs per mode")
     args = parser.parse_args(argv)
     default = load_config()
     rollout = default.ppo.n_steps * default.n_envs  # env steps per PPO update

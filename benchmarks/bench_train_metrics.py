@@ -38,6 +38,8 @@ from typing import Any
 
 import numpy as np
 
+from agents.arguments import non_negative_int, positive_int
+
 
 class _Spent:
     """Time spent in the timed callbacks' ``_on_step``, s."""
@@ -223,13 +225,15 @@ def instruction_counts(steps: int) -> tuple[float, list[tuple[str, int, float]]]
 
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--steps", type=int, default=4096, help="env steps per training run")
-    parser.add_argument("--repeats", type=int, default=3, help="runs per side")
-    parser.add_argument("--n-envs", type=int, default=1, help="1: everything in-process")
+    parser.add_argument(
+        "--steps", type=positive_int, default=4096, help="env steps per training run"
+    )
+    parser.add_argument("--repeats", type=positive_int, default=3, help="runs per side")
+    parser.add_argument("--n-envs", type=positive_int, default=1, help="1: everything in-process")
     parser.add_argument("--skip-training", action="store_true", help="no part 1")
     parser.add_argument(
         "--instructions",
-        type=int,
+        type=non_negative_int,
         metavar="STEPS",
         default=0,
         help="part 3 with this many steps per count (needs valgrind)",

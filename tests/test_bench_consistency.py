@@ -43,9 +43,9 @@ def test_a_tiny_run_prints_every_variant_asked_for() -> None:
         (["--clutter", "nan"], "clutter_rate must be finite"),
         (["--odometry-scale", "inf"], "must be finite"),
         (["--odometry-scale", "1e300"], "exceeds the budget"),
-        (["--odometry-scale", "0"], "--odometry-scale > 0"),
-        (["--seed", "-1"], "--seed must be >= 0"),
-        (["--runs", "0"], "--runs and --steps must be >= 1"),
+        (["--odometry-scale", "0"], "--odometry-scale must be > 0"),
+        (["--seed", "-1"], "argument --seed: must be >= 0"),
+        (["--runs", "0"], "argument --runs: must be >= 1"),
         (["--variants", "known/exact"], "unknown variants"),
     ],
 )
