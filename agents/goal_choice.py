@@ -120,6 +120,13 @@ class GoalChoiceAgent(FrontierAgent):
         self._gain_weight = chosen.gain_weight
         paths, self._paths = self._paths, None
         self._plan(pose, paths)
+        if self._follower is None and self._mode != EXPLORE:
+            # A revisit with nothing to revisit (no landmark known yet) would leave the
+            # robot standing until the next choice, and a policy can keep choosing it:
+            # hand it on to exploring, as the frontier agent's own modes hand over.
+            self._set_mode(EXPLORE)
+            self._gain_weight = CHOICES[0].gain_weight
+            self._plan(pose, paths)
         return self._sent(self._drive(pose))
 
     def features(self) -> np.ndarray:

@@ -82,6 +82,53 @@ def test_features_have_one_size_on_every_setting_of_the_suite():
             assert feature_space().contains(x), (setting.name, x)
 
 
+def test_the_features_say_what_the_docstring_says():
+    """choice_features against the belief and world they describe, mid-episode."""
+    assert [(c.mode, c.gain_weight) for c in CHOICES] == [  # as the README documents
+        (EXPLORE, 1.5), (EXPLORE, 0.5), (EXPLORE, 4.0), (LOCALISE, 1.5), (REFINE, 1.5)
+    ]  # fmt: skip
+    env = make_env({}, 500)
+    agent = GoalChoiceAgent(env, Recorder((0, 1, 2)), seed=0)
+    env.reset(seed=3)
+    agent.reset()
+    for step in range(400):  # 120 steps, then on to the next choice, left pending
+        action = agent.begin_step()
+        if action is None:
+            if step >= 120:
+                break
+            action = agent.finish_step(step % 3)
+        env.step(action)
+    x = agent.features().astype(np.float64)
+    f = agent._base.filter
+    cfg = env.unwrapped.config
+    n = f.n_landmarks
+    sig = np.sqrt(np.trace(f.landmark_covs(), axis1=1, axis2=2))
+    assert n > 0
+    pose_sigma = math.sqrt(f.pose_cov[0, 0] + f.pose_cov[1, 1])
+    expected = {
+        0: pose_sigma / 0.4,  # the frontier agent's loop-closing threshold
+        1: math.sqrt(f.pose_cov[2, 2]) / 0.1,
+        2: math.log1p(n) / 4.0,
+        3: sig.mean(),
+        4: sig.max(),
+        5: agent.memory.coverage.fraction_swept(),
+        7: agent._steps / 500,  # a 16 m arena's episode length
+        8: cfg.sensor.max_range / 5.0,
+        9: cfg.sensor.fov / (2 * math.pi),
+        10: 16.0 / 32.0,
+    }
+    for i, value in expected.items():
+        assert x[i] == pytest.approx(value, rel=1e-5, abs=1e-6), i
+    assert x[11:14].tolist() == [float(agent.mode == m) for m in (EXPLORE, LOCALISE, REFINE)]
+    for c in range(3):  # per weighting: a target, its path in arena sides, area, turn
+        has, path, area, turn = x[14 + 4 * c : 18 + 4 * c]
+        assert has == 1.0 and 0.0 <= path < 1.5 and 0.0 < area < 5.0 and 0.0 <= turn <= 1.0
+    # Weighing area more never picks a target with less of it (0.5, then 1.5, then 4.0).
+    assert x[18 + 2] <= x[14 + 2] + 1e-6 and x[14 + 2] <= x[22 + 2] + 1e-6
+    assert x[29] == 1.0 and 0.0 <= x[30] < 1.5  # a revisit: its path in arena sides
+    assert np.isclose(sig, x[31], rtol=1e-5).any()  # and its landmark's σ, in m
+
+
 def test_a_choice_sets_the_planners_mode_and_weighting():
     env = make_env({}, 80)
     agent = GoalChoiceAgent(env, Recorder(), seed=0)
@@ -107,6 +154,21 @@ def test_a_choice_sets_the_planners_mode_and_weighting():
     assert agent.features()[-3] == 1.0  # a landmark to revisit
     agent.finish_step(4)
     assert agent.mode == REFINE and agent.target_landmark is not None
+
+
+@pytest.mark.parametrize("choice", [3, 4])  # a loop closure, a revisit
+def test_a_choice_with_no_landmark_to_go_to_is_handed_on_to_exploring(choice):
+    """Before any landmark is known, a loop closure or a revisit has no target: the
+    planner explores (at the frontier agent's weighting) instead of standing still."""
+    env = make_env({}, 40)
+    agent = GoalChoiceAgent(env, Recorder(), seed=0)
+    env.reset(seed=2)
+    agent.reset()
+    assert agent.begin_step() is None
+    assert agent.features()[-6] == 0.0 and agent.features()[-3] == 0.0  # nothing known
+    action = agent.finish_step(choice)
+    assert agent.mode == EXPLORE and agent._gain_weight == CHOICES[0].gain_weight
+    assert agent.goal is not None and np.abs(action).max() > 0.0
 
 
 def test_bad_choices_are_refused_and_change_nothing():
