@@ -31,6 +31,7 @@ from agents.evaluation import (
     METRICS,
     POSE_DOF,
     _json_safe,
+    check_episode_memory,
     consistency_series,
     run_episode,
 )
@@ -128,6 +129,7 @@ def demo(
         if max_steps is None:
             max_steps = trained_steps
 
+    check_episode_memory(max_steps, 1, "demo")
     env = make_env(env_options, max_steps, render_mode="rgb_array" if gif else None)
     try:
         agent = make_agent(spec, env, seed=seed)

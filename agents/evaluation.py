@@ -52,7 +52,9 @@ from scipy.stats import t as student_t
 
 from agents.base import Agent
 from agents.registry import agent_label, make_agent, make_env
+from slam_env.budget import MAX_MEMORY_BYTES
 from slam_env.metrics import share_in_nees_band
+from slam_env.registration import DEFAULT_MAX_EPISODE_STEPS
 
 #: Per-episode metrics, in table order, with their descriptions.
 METRICS: dict[str, str] = {
@@ -151,6 +153,27 @@ def _world_digest(info: dict[str, Any]) -> str:
     h.update(np.asarray(info["landmark_ids"], np.int64).tobytes())
     h.update(np.round(np.asarray(info["pose"], np.float64), 6).tobytes())
     return h.hexdigest()[:12]
+
+
+#: Bytes a step of an episode costs while it runs (its info row, estimates and
+#: detections: 2.8 KB measured on the default world) and once kept in its
+#: EpisodeRecord (125 B measured), with room to spare.
+STEP_BYTES_RUNNING = 4096
+STEP_BYTES_KEPT = 256
+
+
+def check_episode_memory(steps: int | None, episodes_kept: int, what: str) -> None:
+    """``ValueError`` unless running an episode of ``steps`` steps (None: the envs'
+    default length) while keeping the records of ``episodes_kept`` of them fits in
+    :data:`slam_env.budget.MAX_MEMORY_BYTES`, before anything runs."""
+    steps = DEFAULT_MAX_EPISODE_STEPS if steps is None else steps
+    need = (steps + 1) * (STEP_BYTES_RUNNING + episodes_kept * STEP_BYTES_KEPT)
+    if need > MAX_MEMORY_BYTES:
+        raise ValueError(
+            f"{what}: {episodes_kept} episode records of {steps} steps need about "
+            f"{need / 2**30:.3g} GiB, over the budget of {MAX_MEMORY_BYTES / 2**30:.0f} GiB "
+            "(README: Resource budget); ask for fewer episodes or steps"
+        )
 
 
 def run_episode(
@@ -467,6 +490,7 @@ def evaluate(
         raise ValueError(f"seed must be an int >= 0, got {seed!r}")
     if not 0 <= plot_episode < episodes:
         raise ValueError(f"plot_episode must be in [0, {episodes}), got {plot_episode}")
+    check_episode_memory(max_steps, len(specs) * episodes, "evaluate")
     factory = agent_factory or make_agent
 
     envs: dict[str, gym.Env] = {}

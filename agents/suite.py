@@ -47,7 +47,14 @@ from typing import Any
 import gymnasium as gym
 
 from agents.base import Agent
-from agents.evaluation import EpisodeRecord, _json_safe, _write_csv, mean_ci, run_episode
+from agents.evaluation import (
+    EpisodeRecord,
+    _json_safe,
+    _write_csv,
+    check_episode_memory,
+    mean_ci,
+    run_episode,
+)
 from agents.registry import agent_label, make_agent, make_env, parse_agent_specs
 from agents.suite_metrics import MAPPED_SHARES, SUITE_METRICS, suite_metrics
 from agents.world_sampling import REFERENCE_ARENA, episode_length
@@ -180,6 +187,8 @@ def run_suite(
         seed = SUITE_SEED
     if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
         raise ValueError(f"seed must be an int >= 0 or None, got {seed!r}")
+    for setting in settings:  # one agent's records of a setting are kept at a time
+        check_episode_memory(setting.steps, setting.episodes, f"suite setting {setting.name}")
     observations = {spec: agent_observation(spec) for spec in specs}  # checks PPO files
     _check_fits(specs, settings, observations)
     from tqdm.auto import tqdm

@@ -161,6 +161,17 @@ def test_cli_train(tmp_path, capsys):
         (["demo", "--agent", "ppo:/no/such/policy.zip"], "PPO policy file not found"),
         (["train", "--n-envs", "0"], "--n-envs: must be >= 1"),
         (["train", "--config", "/no/such/config.yaml"], "config file not found"),
+        # Absurd magnitudes: the episode records would not fit in memory.
+        (
+            ["evaluate", "--agents", "random", "--episodes", "1000000000"],
+            "1000000000 episode records of 500 steps need about",
+        ),
+        (["evaluate", "--agents", "random", "--max-steps", "1000000000"], "over the budget"),
+        (
+            ["evaluate", "--agents", "random", "--suite", "smoke", "--episodes", "100000000"],
+            "suite setting default: 100000000 episode records of 30 steps",
+        ),
+        (["demo", "--max-steps", "100000000"], "demo: 1 episode records of 100000000 steps"),
     ],
 )
 def test_bad_arguments_exit_2_with_a_message(argv, message, tmp_path, capsys):

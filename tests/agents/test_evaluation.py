@@ -278,3 +278,18 @@ def test_an_episode_without_a_mapped_landmark_has_no_map_error():
     assert record.landmarks_known[-1] == 0 and np.isnan(record.map_rmse).all()
     assert math.isnan(record.metrics()["map_rmse"])
     assert mean_ci([record.metrics()["map_rmse"], 0.2, 0.4])[:1] == (pytest.approx(0.3),)
+
+
+def test_the_episode_memory_budget_is_checked_at_its_edge():
+    from agents.evaluation import STEP_BYTES_KEPT, STEP_BYTES_RUNNING, check_episode_memory
+    from slam_env.budget import MAX_MEMORY_BYTES
+
+    steps = 499
+    fits = (MAX_MEMORY_BYTES // (steps + 1) - STEP_BYTES_RUNNING) // STEP_BYTES_KEPT
+    check_episode_memory(steps, fits, "x")  # exactly within
+    with pytest.raises(ValueError, match=f"x: {fits + 1} episode records of 499 steps"):
+        check_episode_memory(steps, fits + 1, "x")
+    fits = (MAX_MEMORY_BYTES // 501 - STEP_BYTES_RUNNING) // STEP_BYTES_KEPT
+    check_episode_memory(None, fits, "x")  # None: the envs' default 500 steps, 501 rows
+    with pytest.raises(ValueError, match="of 500 steps"):
+        check_episode_memory(None, fits + 1, "x")
