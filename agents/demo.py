@@ -31,6 +31,7 @@ from agents.evaluation import (
     METRICS,
     POSE_DOF,
     _json_safe,
+    check_count,
     check_episode_memory,
     consistency_series,
     run_episode,
@@ -119,8 +120,7 @@ def demo(
     ``gif=False``), the final map, the consistency plot and the metrics, print the
     metrics when ``verbose``."""
     spec = (agent_spec or default_agent_spec()).strip()
-    if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
-        raise ValueError(f"seed must be an int >= 0, got {seed!r}")
+    check_count("seed", seed, 0)
     if gif_max_frames < 2:
         raise ValueError(f"gif_max_frames must be >= 2, got {gif_max_frames}")
     if env_options is None:

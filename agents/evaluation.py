@@ -162,6 +162,13 @@ STEP_BYTES_RUNNING = 4096
 STEP_BYTES_KEPT = 256
 
 
+def check_count(name: str, value: Any, minimum: int) -> None:
+    """``ValueError`` unless ``value`` is an int (not a bool) no smaller than ``minimum``:
+    the episode counts and seeds of :func:`evaluate`, the suites and the demo."""
+    if isinstance(value, bool) or not isinstance(value, int) or value < minimum:
+        raise ValueError(f"{name} must be an int >= {minimum}, got {value!r}")
+
+
 def check_episode_memory(steps: int | None, episodes_kept: int, what: str) -> None:
     """``ValueError`` unless running an episode of ``steps`` steps (None: the envs'
     default length) while keeping the records of ``episodes_kept`` of them fits in
@@ -484,10 +491,8 @@ def evaluate(
     if not specs:
         raise ValueError("no agent to evaluate")
     parse_agent_specs(",".join(specs))  # rejects empty and duplicate specs
-    if isinstance(episodes, bool) or not isinstance(episodes, int) or episodes < 1:
-        raise ValueError(f"episodes must be an int >= 1, got {episodes!r}")
-    if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
-        raise ValueError(f"seed must be an int >= 0, got {seed!r}")
+    check_count("episodes", episodes, 1)
+    check_count("seed", seed, 0)
     if not 0 <= plot_episode < episodes:
         raise ValueError(f"plot_episode must be in [0, {episodes}), got {plot_episode}")
     check_episode_memory(max_steps, len(specs) * episodes, "evaluate")

@@ -51,6 +51,7 @@ from agents.evaluation import (
     EpisodeRecord,
     _json_safe,
     _write_csv,
+    check_count,
     check_episode_memory,
     mean_ci,
     run_episode,
@@ -180,13 +181,11 @@ def run_suite(
     parse_agent_specs(",".join(specs))
     settings = suite_settings(suite)
     if episodes is not None:
-        if isinstance(episodes, bool) or not isinstance(episodes, int) or episodes < 1:
-            raise ValueError(f"episodes must be an int >= 1 or None, got {episodes!r}")
+        check_count("episodes", episodes, 1)
         settings = [dataclasses.replace(s, episodes=episodes) for s in settings]
     if seed is None:
         seed = SUITE_SEED
-    if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
-        raise ValueError(f"seed must be an int >= 0 or None, got {seed!r}")
+    check_count("seed", seed, 0)
     for setting in settings:  # one agent's records of a setting are kept at a time
         check_episode_memory(setting.steps, setting.episodes, f"suite setting {setting.name}")
     observations = {spec: agent_observation(spec) for spec in specs}  # checks PPO files
