@@ -71,7 +71,8 @@ class GoalChoiceAgent(FrontierAgent):
     Args:
         env: a ``slam_env/ActiveSLAM-v0`` env (continuous actions).
         policy: maps :func:`choice_features` ((N_FEATURES,) float32) to an index into
-            :data:`CHOICES`.
+            :data:`CHOICES`; one with a ``reset()`` method (a policy with memory) has it
+            called at the start of each episode.
         seed: seed of the agent's random generator (backing off only).
         **params: overrides of :class:`~agents.frontier.FrontierParams`.
     """
@@ -79,11 +80,14 @@ class GoalChoiceAgent(FrontierAgent):
     def __init__(
         self, env: gym.Env, policy: Policy, seed: int | None = None, **params: Any
     ) -> None:
+        self._policy = policy  # (before the base class starts the first episode)
         super().__init__(env, seed=seed, **params)
-        self._policy = policy
 
     def _new_episode(self) -> None:
         super()._new_episode()
+        reset = getattr(self._policy, "reset", None)
+        if callable(reset):
+            reset()
         self._steps = 0  # steps of this episode so far
         self._paths: tuple[np.ndarray, np.ndarray] | None = None  # of a pending choice
 

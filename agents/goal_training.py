@@ -13,7 +13,12 @@ drawn from the config's ``worlds``, and writes into ``out_dir``::
     eval/best_model.zip, eval/evaluations.npz   (by the return, on the default world)
 
 ``total_timesteps`` counts choices; the config's ``env_options.reward_weights``
-shape the reward (:class:`~agents.goal_env.GoalChoiceEnv`).
+shape the reward (:class:`~agents.goal_env.GoalChoiceEnv`). ``memory`` says what the
+policy remembers beyond the features of the choice at hand: nothing (``features``),
+the features of its last ``memory_frames`` choices (``frame_stack``, SB3's
+``VecFrameStack``), or an LSTM of ``memory_units`` (``recurrent``, sb3-contrib's
+``RecurrentPPO``). :func:`load_goal_agent` runs any of them with the memory it was
+trained with.
 """
 
 from __future__ import annotations
@@ -26,7 +31,14 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from agents.goal_choice import CHOICES, GoalChoiceAgent, choice_space, feature_space
+from agents.goal_choice import (
+    CHOICES,
+    FEATURE_BOUND,
+    N_FEATURES,
+    GoalChoiceAgent,
+    choice_space,
+    feature_space,
+)
 from agents.goal_env import GoalChoiceEnv
 from agents.training import (
     TrainConfig,
@@ -75,7 +87,7 @@ def train_goal_choice(cfg: TrainConfig) -> Path:
     from stable_baselines3.common.env_util import make_vec_env
     from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv
 
-    from agents.train_timing import StepTimer, TimedPPO, time_shares
+    from agents.train_timing import StepTimer, time_shares
 
     torch.set_num_threads(cfg.torch_threads)
     out = Path(cfg.out_dir)
@@ -96,20 +108,26 @@ def train_goal_choice(cfg: TrainConfig) -> Path:
     else:
         vec_cls, vec_kwargs = DummyVecEnv, None
     train_env = StepTimer(
-        make_vec_env(
-            factory, cfg.n_envs, seed=cfg.seed, vec_env_cls=vec_cls, vec_env_kwargs=vec_kwargs
+        with_memory(
+            make_vec_env(
+                factory, cfg.n_envs, seed=cfg.seed, vec_env_cls=vec_cls, vec_env_kwargs=vec_kwargs
+            ),
+            cfg,
         )
     )
     eval_env = None
     interrupted = False
     try:
-        model = TimedPPO("MlpPolicy", train_env, **ppo_arguments(cfg, out))
+        model = _algorithm(cfg, train_env, out)
         callbacks = checkpoint_callbacks(cfg, out)
         if cfg.eval_freq > 0:
             default_world = dataclasses.replace(factory, worlds=None)
             # (in a StepTimer too: EvalCallback warns when the two envs' types differ)
             eval_env = StepTimer(
-                make_vec_env(default_world, 1, seed=cfg.eval_seed, vec_env_cls=DummyVecEnv)
+                with_memory(
+                    make_vec_env(default_world, 1, seed=cfg.eval_seed, vec_env_cls=DummyVecEnv),
+                    cfg,
+                )
             )
             callbacks.append(EvalCallback(eval_env, **eval_arguments(cfg, out)))
         wall, interrupted = learn_and_save(model, cfg, callbacks, model_path)
@@ -133,24 +151,105 @@ def train_goal_choice(cfg: TrainConfig) -> Path:
     return model_path
 
 
+def with_memory(venv: Any, cfg: TrainConfig) -> Any:
+    """``venv`` with the frame stack of ``memory: frame_stack`` (else as it is)."""
+    if cfg.memory != "frame_stack":
+        return venv
+    from stable_baselines3.common.vec_env import VecFrameStack
+
+    return VecFrameStack(venv, cfg.memory_frames)
+
+
+def _algorithm(cfg: TrainConfig, venv: Any, out: Path) -> Any:
+    """PPO on the features, or sb3-contrib's RecurrentPPO for ``memory: recurrent``,
+    timing its updates (:class:`~agents.train_timing.UpdateTimer`)."""
+    from agents.train_timing import TimedPPO, UpdateTimer
+
+    arguments = ppo_arguments(cfg, out)
+    if cfg.memory != "recurrent":
+        return TimedPPO("MlpPolicy", venv, **arguments)
+    from sb3_contrib import RecurrentPPO
+
+    class TimedRecurrentPPO(UpdateTimer, RecurrentPPO):
+        """sb3-contrib's RecurrentPPO with :class:`UpdateTimer`."""
+
+    arguments["policy_kwargs"]["lstm_hidden_size"] = cfg.memory_units
+    return TimedRecurrentPPO("MlpLstmPolicy", venv, **arguments)
+
+
+class PolicyChooser:
+    """The greedy choices of a trained policy, with the memory it was trained with: the
+    features of its last ``frames`` choices stacked as ``VecFrameStack`` stacks them
+    (zeros before the episode's first), or its LSTM's state; :meth:`reset` at each
+    episode's start (:class:`~agents.goal_choice.GoalChoiceAgent` calls it)."""
+
+    def __init__(self, model: Any, frames: int) -> None:
+        self._model = model
+        self._frames = frames
+        self.reset()
+
+    def reset(self) -> None:
+        from stable_baselines3.common.vec_env.stacked_observations import StackedObservations
+
+        self._stack = StackedObservations(1, self._frames, feature_space())
+        self._state: Any = None
+        self._first = True
+
+    def __call__(self, features: np.ndarray) -> int:
+        obs = features[None]
+        if self._first:
+            obs = self._stack.reset(obs)
+        else:
+            obs, _ = self._stack.update(obs, np.zeros(1, dtype=bool), [{}])
+        action, self._state = self._model.predict(
+            obs, state=self._state, episode_start=np.array([self._first]), deterministic=True
+        )
+        self._first = False
+        return int(action[0])
+
+
+def _load_model(path: Path) -> Any:
+    """The PPO or RecurrentPPO saved at ``path``."""
+    from stable_baselines3 import PPO
+    from stable_baselines3.common.save_util import load_from_zip_file
+
+    try:
+        data, _, _ = load_from_zip_file(path, device="cpu", print_system_info=False)
+    except ModuleNotFoundError as exc:
+        raise ValueError(
+            f"{path} needs the module {exc.name!r} to load (a recurrent goal policy needs "
+            "sb3-contrib: pip install 'slam_env[recurrent]')"
+        ) from None
+    if _is_recurrent(data.get("policy_class")):
+        from sb3_contrib import RecurrentPPO
+
+        return RecurrentPPO.load(path, device="cpu")
+    return PPO.load(path, device="cpu")
+
+
+def _is_recurrent(policy_class: Any) -> bool:
+    try:
+        from sb3_contrib.common.recurrent.policies import RecurrentActorCriticPolicy
+    except ImportError:  # then no policy class of it could have been unpickled
+        return False
+    return isinstance(policy_class, type) and issubclass(policy_class, RecurrentActorCriticPolicy)
+
+
 def load_goal_agent(path: str | Path, env: gym.Env, seed: int | None = None) -> GoalChoiceAgent:
     """The :class:`GoalChoiceAgent` of the policy saved at ``path``, acting on ``env``
-    (greedy choices). ``ValueError`` for a missing file or a policy of other spaces."""
-    from stable_baselines3 import PPO
-
+    (greedy choices, with the policy's memory). ``ValueError`` for a missing file or a
+    policy of other spaces."""
     from agents.ppo import resolve_policy_path
 
     path = resolve_policy_path(path)
-    model = PPO.load(path, device="cpu")
-    expected = (feature_space(), choice_space())
-    if (model.observation_space, model.action_space) != expected:
+    model = _load_model(path)
+    space = model.observation_space
+    flat = isinstance(space, gym.spaces.Box) and len(space.shape) == 1
+    frames = space.shape[0] // N_FEATURES if flat else 0
+    stacked = gym.spaces.Box(-FEATURE_BOUND, FEATURE_BOUND, (frames * N_FEATURES,), np.float32)
+    if frames < 1 or space != stacked or model.action_space != choice_space():
         raise ValueError(
-            f"{path} is not a goal-choosing policy: it takes {model.observation_space} to "
-            f"{model.action_space}, not {expected[0]} to {len(CHOICES)} choices"
+            f"{path} is not a goal-choosing policy: it takes {space} to {model.action_space}, "
+            f"not {feature_space()} (or a stack of them) to {len(CHOICES)} choices"
         )
-
-    def choose(features: np.ndarray) -> int:
-        action, _ = model.predict(features, deterministic=True)
-        return int(action)
-
-    return GoalChoiceAgent(env, choose, seed=seed)
+    return GoalChoiceAgent(env, PolicyChooser(model, frames), seed=seed)

@@ -2,9 +2,10 @@
 
 :class:`StepTimer` wraps the training ``VecEnv`` and adds up the time spent in its
 ``step_wait`` (every env step of every sub-env, with any wrappers beneath it);
-:class:`TimedPPO` times its ``train()`` (the gradient updates on a rollout) the same
-way. :func:`time_shares` turns both into shares of a wall time; what is left is the
-policy's forward passes while collecting, callbacks and logging.
+:class:`UpdateTimer` times an algorithm's ``train()`` (the gradient updates on a
+rollout) the same way (:class:`TimedPPO`). :func:`time_shares` turns both into shares
+of a wall time; what is left is the policy's forward passes while collecting,
+callbacks and logging.
 """
 
 from __future__ import annotations
@@ -34,10 +35,11 @@ class StepTimer(VecEnvWrapper):
         return out
 
 
-class TimedPPO(PPO):
-    """stable-baselines3's PPO that keeps :attr:`update_seconds`, the wall time spent in
-    ``train()``, the gradient updates on each rollout. It saves and loads as PPO does
-    (``PPO.load`` reads its files)."""
+class UpdateTimer:
+    """A mixin for a stable-baselines3 on-policy algorithm that keeps
+    :attr:`update_seconds`, the wall time spent in ``train()``, the gradient updates on
+    each rollout. It saves and loads as the algorithm does (its ``load`` reads the
+    files)."""
 
     update_seconds = 0.0
 
@@ -50,6 +52,10 @@ class TimedPPO(PPO):
 
     def _excluded_save_params(self) -> list[str]:
         return [*super()._excluded_save_params(), "update_seconds"]
+
+
+class TimedPPO(UpdateTimer, PPO):
+    """stable-baselines3's PPO with :class:`UpdateTimer` (``PPO.load`` reads its files)."""
 
 
 def time_shares(wall: float, env_step: float, updates: float) -> dict[str, float | None]:

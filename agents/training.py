@@ -50,6 +50,11 @@ VECTORIZATIONS = ("native", "subproc", "dummy")
 #: What the policy decides: ``actions`` the robot's action every env step (on the
 #: env's observation), ``goals`` the planner's next goal (:mod:`agents.goal_choice`).
 DECISIONS = ("actions", "goals")
+#: What a goal-choosing policy remembers beyond its features (``memory``): nothing,
+#: the features of its last ``memory_frames`` choices, or an LSTM's state (sb3-contrib).
+MEMORIES = ("features", "frame_stack", "recurrent")
+MAX_MEMORY_FRAMES = 64
+MAX_MEMORY_UNITS = 1024
 ACTIVATIONS = ("tanh", "relu")
 
 
@@ -92,6 +97,11 @@ class TrainConfig:
     # decisions: goals: "flat" or "remaining" (the bonus times the share of the episode
     # left; agents.goal_env.GoalChoiceEnv); "flat" for decisions: actions.
     discovery_schedule: str = "flat"
+    # decisions: goals: one of MEMORIES ("features" for decisions: actions); the choices
+    # a frame stack holds, and the LSTM's hidden units of a recurrent policy.
+    memory: str = "features"
+    memory_frames: int = 4
+    memory_units: int = 64
     n_envs: int = 2  # sub-envs stepped together (worker processes for "subproc")
     vectorization: str = "native"  # one of VECTORIZATIONS
     seed: int = 0
@@ -172,6 +182,24 @@ def _validate_ppo(p: PPOParams) -> None:
     )
 
 
+def _validate_memory(cfg: TrainConfig) -> None:
+    _check(cfg.memory in MEMORIES, "memory", cfg.memory, f"one of {MEMORIES}")
+    if cfg.decisions != "goals":
+        expected = "'features' unless decisions is goals"
+        _check(cfg.memory == "features", "memory", cfg.memory, expected)
+    for name, top in (("memory_frames", MAX_MEMORY_FRAMES), ("memory_units", MAX_MEMORY_UNITS)):
+        v = getattr(cfg, name)
+        _check(_is_int(v) and 1 <= v <= top, name, v, f"an int in [1, {top}]")
+    if cfg.memory == "recurrent":
+        try:
+            import sb3_contrib  # noqa: F401
+        except ImportError:
+            raise ConfigError(
+                "config key 'memory': 'recurrent' needs sb3-contrib "
+                "(pip install 'slam_env[recurrent]')"
+            ) from None
+
+
 def validate_config(cfg: TrainConfig) -> TrainConfig:
     """Check every field's type and range; raise :class:`ConfigError` naming the key."""
     for name in ("total_timesteps", "n_envs", "torch_threads", "eval_episodes"):
@@ -197,6 +225,7 @@ def validate_config(cfg: TrainConfig) -> TrainConfig:
         expected = "'flat' unless decisions is goals"
         schedule = cfg.discovery_schedule
         _check(schedule == "flat", "discovery_schedule", schedule, expected)
+    _validate_memory(cfg)
     _check(isinstance(cfg.env_options, dict), "env_options", cfg.env_options, "a mapping")
     _check(
         cfg.max_episode_steps is None
