@@ -29,6 +29,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
+import sys
 import time
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -511,6 +512,8 @@ def learn_and_save(
 ) -> tuple[float, bool]:
     """``model.learn`` as ``cfg`` says, then the policy saved at ``path``: (wall time
     of the learning in s, whether Ctrl-C stopped it; what was learnt is kept)."""
+    if not cfg.tensorboard:
+        model.set_logger(console_logger(cfg.verbose))
     start = time.perf_counter()
     interrupted = False
     try:
@@ -525,6 +528,14 @@ def learn_and_save(
     wall = time.perf_counter() - start
     save_policy_file(model, path)
     return wall, interrupted
+
+
+def console_logger(verbose: int) -> Any:
+    """An SB3 logger that prints its tables with ``verbose`` >= 1 and writes no files:
+    without one, SB3 makes a new empty folder in the temp dir at every run."""
+    from stable_baselines3.common.logger import HumanOutputFormat, Logger
+
+    return Logger(None, [HumanOutputFormat(sys.stdout)] if verbose >= 1 else [])
 
 
 def save_policy_file(model: Any, path: Path) -> None:

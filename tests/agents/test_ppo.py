@@ -270,6 +270,22 @@ def test_training_is_reproducible_with_worker_processes(tmp_path):
         np.testing.assert_array_equal(a, b)
 
 
+@pytest.mark.parametrize("verbose", [0, 1])
+def test_training_without_tensorboard_writes_nothing_outside_its_folder(
+    tmp_path, monkeypatch, capsys, verbose
+):
+    import tempfile
+
+    temp = tmp_path / "temp"
+    temp.mkdir()
+    monkeypatch.setattr(tempfile, "tempdir", str(temp))  # where SB3 would make a folder
+    cfg = tiny_config(tmp_path / "run", tensorboard=False, eval_freq=0, verbose=verbose)
+    cfg["total_timesteps"] = cfg["ppo"]["n_steps"]  # one rollout, one table
+    train(cfg)
+    assert list(temp.iterdir()) == []
+    assert ("total_timesteps" in capsys.readouterr().out) == (verbose >= 1)
+
+
 def test_the_shipped_policy_is_small_and_fits_the_default_env():
     from agents.registry import SHIPPED_POLICY
 
