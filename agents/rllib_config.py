@@ -11,7 +11,7 @@ as in stable-baselines3. ``n_envs`` is the number of sub-envs each EnvRunner ste
 (``native``: one native vector env; ``dummy``: RLlib's ``sync``; ``subproc``: its
 ``async``). Keys RLlib cannot honour with the same meaning (``target_kl``,
 ``normalize_advantage: false``, ``log_std_init`` ≠ 0), and what this engine does not do
-yet (``worlds``, ``world_groups``, the ``local`` observation), are refused by
+yet (``decisions: goals``, ``worlds``, ``world_groups``, the ``local`` observation), are refused by
 :func:`check_rllib_config`, never ignored. The EnvRunners log the SLAM metrics of every
 training episode (:func:`log_slam_metrics`). Nothing here needs Ray at import.
 """
@@ -59,6 +59,11 @@ class RLlibSettings:
 def check_rllib_config(cfg: TrainConfig) -> None:
     """Raise :class:`ConfigError` for the PPO settings that RLlib would read differently
     (no Ray needed: a config is checked before a cluster is reached)."""
+    if cfg.decisions != "actions":
+        raise ConfigError(
+            f"decisions: {cfg.decisions} (a policy choosing the planner's goals) is not "
+            "available with --engine rllib yet: it trains the policy acting every env step"
+        )
     for key in ("worlds", "world_groups"):
         if getattr(cfg, key) is not None:
             raise ConfigError(

@@ -97,6 +97,7 @@ def test_settings_rllib_cannot_honour_are_refused(ppo, key):
         ({"env_options": {"observation": "local"}, "worlds": {}}, "worlds"),
         ({"n_envs": 2, "world_groups": 1}, "world_groups"),
         ({"env_options": {"observation": "local"}}, "observation"),
+        ({"decisions": "goals", "vectorization": "dummy"}, "decisions: goals"),
     ],
 )
 def test_what_the_rllib_engine_does_not_do_yet_is_refused(config, key):
