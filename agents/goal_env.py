@@ -74,6 +74,12 @@ class GoalChoiceEnv(gym.Env):
             ``"remaining"``: times the share of the episode still left when it is made
             (1 on the first step, 1/T on the last of T), so that the bonuses of an
             episode sum to the area above its discovery curve: mapping early pays.
+        curriculum_choices: a curriculum over the arena sizes of ``worlds``: an episode
+            that starts after c choices (over all episodes of this env) draws from the
+            smallest ``ceil(c / curriculum_choices · K)`` of its K sizes
+            (:meth:`~agents.world_sampling.WorldDistribution.up_to`), so that the
+            arenas grow to all K over the first ``curriculum_choices`` choices; 0: all
+            from the start.
     """
 
     metadata: dict[str, Any] = {"render_modes": []}
@@ -86,8 +92,15 @@ class GoalChoiceEnv(gym.Env):
         discovery_bonus: float = 0.0,
         discovery_until: float = 1.0,
         discovery_schedule: str = "flat",
+        curriculum_choices: int = 0,
     ) -> None:
         check_discovery(discovery_bonus, discovery_until, discovery_schedule)
+        if not (
+            isinstance(curriculum_choices, int)
+            and not isinstance(curriculum_choices, bool)
+            and curriculum_choices >= 0
+        ):
+            raise ValueError(f"curriculum_choices must be an int >= 0, got {curriculum_choices!r}")
         self.observation_space = feature_space()
         self.action_space = choice_space()
         self._options = dict(env_options or {})
@@ -103,6 +116,8 @@ class GoalChoiceEnv(gym.Env):
         self._info: dict[str, Any] = {}
         self._n_landmarks = 1
         self._paid_until = 1.0  # landmarks known up to which a discovery earns the bonus
+        self._curriculum_choices = curriculum_choices
+        self._choices_made = 0  # over all episodes: the curriculum's clock
 
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
@@ -110,10 +125,13 @@ class GoalChoiceEnv(gym.Env):
         super().reset(seed=seed)
         rng = self.np_random
         self.close()
+        worlds = self._worlds
+        if worlds is not None and self._curriculum_choices:
+            worlds = worlds.up_to(self._choices_made / self._curriculum_choices)
         for _ in range(MAX_DRAWS):
             setting = dict(self._options)
-            if self._worlds is not None:
-                setting.update(self._worlds.sample(rng))
+            if worlds is not None:
+                setting.update(worlds.sample(rng))
             side = max(
                 setting.get("width", REFERENCE_ARENA), setting.get("height", REFERENCE_ARENA)
             )
@@ -148,6 +166,7 @@ class GoalChoiceEnv(gym.Env):
         if not self.action_space.contains(action):
             raise ValueError(f"action must be an int in [0, {self.action_space.n}), got {action!r}")
         features, reward, terminated, truncated = self._drive(int(action))
+        self._choices_made += 1
         return features, reward, terminated, truncated, dict(self._info)
 
     def _drive(self, choice: int | None) -> tuple[np.ndarray, float, bool, bool]:

@@ -64,6 +64,7 @@ class GoalEnvFactory:
     discovery_bonus: float = 0.0
     discovery_until: float = 1.0
     discovery_schedule: str = "flat"
+    curriculum_choices: int = 0
 
     def __call__(self) -> gym.Env:
         import torch
@@ -77,6 +78,7 @@ class GoalEnvFactory:
             self.discovery_bonus,
             self.discovery_until,
             self.discovery_schedule,
+            self.curriculum_choices,
         )
 
 
@@ -102,6 +104,7 @@ def train_goal_choice(cfg: TrainConfig) -> Path:
         cfg.discovery_bonus,
         cfg.discovery_until,
         cfg.discovery_schedule,
+        round(cfg.curriculum * cfg.total_timesteps / cfg.n_envs),  # each sub-env's share
     )
     if cfg.vectorization == "subproc":
         vec_cls, vec_kwargs = SubprocVecEnv, {"start_method": cfg.start_method}

@@ -103,6 +103,9 @@ class TrainConfig:
     memory: str = "features"
     memory_frames: int = 4
     memory_units: int = 64
+    # decisions: goals: the share of the training over which the arena sizes drawn grow
+    # from the smallest of worlds.arena_sizes to all of them (0: all from the start).
+    curriculum: float = 0.0
     n_envs: int = 2  # sub-envs stepped together (worker processes for "subproc")
     vectorization: str = "native"  # one of VECTORIZATIONS
     seed: int = 0
@@ -201,6 +204,15 @@ def _validate_memory(cfg: TrainConfig) -> None:
             ) from None
 
 
+def _validate_curriculum(cfg: TrainConfig) -> None:
+    c = cfg.curriculum
+    _check(_is_number(c) and 0 <= c <= 1, "curriculum", c, "a number in [0, 1]")
+    if c > 0:
+        sizes = cfg.worlds.get("arena_sizes") if isinstance(cfg.worlds, dict) else None
+        expected = "0 unless decisions is goals and worlds has arena_sizes to grow"
+        _check(cfg.decisions == "goals" and bool(sizes), "curriculum", c, expected)
+
+
 def validate_config(cfg: TrainConfig) -> TrainConfig:
     """Check every field's type and range; raise :class:`ConfigError` naming the key."""
     for name in ("total_timesteps", "n_envs", "torch_threads", "eval_episodes"):
@@ -227,6 +239,7 @@ def validate_config(cfg: TrainConfig) -> TrainConfig:
         schedule = cfg.discovery_schedule
         _check(schedule == "flat", "discovery_schedule", schedule, expected)
     _validate_memory(cfg)
+    _validate_curriculum(cfg)
     _check(isinstance(cfg.env_options, dict), "env_options", cfg.env_options, "a mapping")
     _check(
         cfg.max_episode_steps is None

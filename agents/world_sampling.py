@@ -23,7 +23,7 @@ from __future__ import annotations
 import math
 from collections import OrderedDict
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, fields
+from dataclasses import dataclass, fields, replace
 from typing import Any
 
 import numpy as np
@@ -104,6 +104,16 @@ class WorldDistribution:
         if unknown:
             raise ValueError(f"unknown worlds key(s) {unknown}; valid: {', '.join(sorted(valid))}")
         return cls(**dict(data))
+
+    def up_to(self, share: float) -> WorldDistribution:
+        """The distribution with only the smallest ``ceil(share · K)`` (at least one) of
+        its K arena sizes: a curriculum's worlds at ``share`` of its ramp; itself once
+        every size is in (or without arena sizes)."""
+        if self.arena_sizes is None:
+            return self
+        sizes = sorted(self.arena_sizes)
+        k = max(1, math.ceil(min(max(share, 0.0), 1.0) * len(sizes)))
+        return self if k == len(sizes) else replace(self, arena_sizes=tuple(sizes[:k]))
 
     def sample(self, rng: np.random.Generator) -> dict[str, Any]:
         """One setting's env options (flat names), drawn from ``rng``."""
