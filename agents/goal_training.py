@@ -18,12 +18,14 @@ policy remembers beyond the features of the choice at hand: nothing (``features`
 the features of its last ``memory_frames`` choices (``frame_stack``, SB3's
 ``VecFrameStack``), or an LSTM of ``memory_units`` (``recurrent``, sb3-contrib's
 ``RecurrentPPO``). :func:`load_goal_agent` runs any of them with the memory it was
-trained with.
+trained with. ``curriculum`` grows the training worlds' arenas over that share of the
+training (:class:`~agents.goal_env.GoalChoiceEnv`'s ``curriculum_choices``).
 """
 
 from __future__ import annotations
 
 import dataclasses
+import math
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -104,7 +106,7 @@ def train_goal_choice(cfg: TrainConfig) -> Path:
         cfg.discovery_bonus,
         cfg.discovery_until,
         cfg.discovery_schedule,
-        round(cfg.curriculum * cfg.total_timesteps / cfg.n_envs),  # each sub-env's share
+        math.ceil(cfg.curriculum * cfg.total_timesteps / cfg.n_envs),  # each sub-env's part
     )
     if cfg.vectorization == "subproc":
         vec_cls, vec_kwargs = SubprocVecEnv, {"start_method": cfg.start_method}
