@@ -1,11 +1,19 @@
-"""argparse types for counts, shared by the ``slam-env`` command and the benchmarks, so
-that a count out of range is a usage error (exit 2) that names the flag, before
-anything runs."""
+"""Counts (episodes, steps, seeds): :func:`check_count`, the check every entry point
+applies to one given in code, and argparse types for one given on a command line,
+shared by the ``slam-env`` command and the benchmarks, so that a count out of range is
+a usage error (exit 2) that names the flag, before anything runs."""
 
 from __future__ import annotations
 
 import argparse
 from collections.abc import Callable
+from typing import Any
+
+
+def check_count(name: str, value: Any, minimum: int) -> None:
+    """``ValueError`` unless ``value`` is an int (not a bool) no smaller than ``minimum``."""
+    if isinstance(value, bool) or not isinstance(value, int) or value < minimum:
+        raise ValueError(f"{name} must be an int >= {minimum}, got {value!r}")
 
 
 def int_at_least(minimum: int) -> Callable[[str], int]:

@@ -25,13 +25,13 @@ from typing import Any
 import numpy as np
 import yaml
 
+from agents.arguments import check_count
 from agents.evaluation import (
     AGENT_METRICS,
     CONFIDENCE,
     METRICS,
     POSE_DOF,
     _json_safe,
-    check_count,
     check_episode_memory,
     consistency_series,
     run_episode,

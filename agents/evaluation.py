@@ -50,6 +50,7 @@ import gymnasium as gym
 import numpy as np
 from scipy.stats import t as student_t
 
+from agents.arguments import check_count
 from agents.base import Agent
 from agents.registry import agent_label, make_agent, make_env
 from slam_env.budget import MAX_MEMORY_BYTES
@@ -160,13 +161,6 @@ def _world_digest(info: dict[str, Any]) -> str:
 #: EpisodeRecord (125 B measured), with room to spare.
 STEP_BYTES_RUNNING = 4096
 STEP_BYTES_KEPT = 256
-
-
-def check_count(name: str, value: Any, minimum: int) -> None:
-    """``ValueError`` unless ``value`` is an int (not a bool) no smaller than ``minimum``:
-    the episode counts and seeds of :func:`evaluate`, the suites and the demo."""
-    if isinstance(value, bool) or not isinstance(value, int) or value < minimum:
-        raise ValueError(f"{name} must be an int >= {minimum}, got {value!r}")
 
 
 def check_episode_memory(steps: int | None, episodes_kept: int, what: str) -> None:

@@ -22,6 +22,7 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
+from agents.arguments import check_count
 from agents.goal_choice import GoalChoiceAgent, choice_space, feature_space
 from agents.registry import make_env
 from agents.world_sampling import MAX_DRAWS, REFERENCE_ARENA, WorldDistribution, episode_length
@@ -95,12 +96,7 @@ class GoalChoiceEnv(gym.Env):
         curriculum_choices: int = 0,
     ) -> None:
         check_discovery(discovery_bonus, discovery_until, discovery_schedule)
-        if not (
-            isinstance(curriculum_choices, int)
-            and not isinstance(curriculum_choices, bool)
-            and curriculum_choices >= 0
-        ):
-            raise ValueError(f"curriculum_choices must be an int >= 0, got {curriculum_choices!r}")
+        check_count("curriculum_choices", curriculum_choices, 0)
         self.observation_space = feature_space()
         self.action_space = choice_space()
         self._options = dict(env_options or {})

@@ -25,6 +25,7 @@ from typing import Any
 
 import gymnasium as gym
 
+from agents.arguments import check_count
 from agents.base import Agent, RandomAgent
 
 #: The env every agent acts on; the ``module:`` prefix imports ``slam_env`` (which
@@ -62,8 +63,7 @@ def make_env(
             raise ValueError(f"env option {reserved!r} is set by the caller, not in env_options")
     kwargs: dict[str, Any] = {}
     if max_steps is not None:
-        if isinstance(max_steps, bool) or not isinstance(max_steps, int) or max_steps < 1:
-            raise ValueError(f"max_steps must be an int >= 1, got {max_steps!r}")
+        check_count("max_steps", max_steps, 1)
         kwargs["max_episode_steps"] = max_steps
     try:
         return gym.make(ENV_ID, render_mode=render_mode, **kwargs, **options)

@@ -46,12 +46,12 @@ from typing import Any
 
 import gymnasium as gym
 
+from agents.arguments import check_count
 from agents.base import Agent
 from agents.evaluation import (
     EpisodeRecord,
     _json_safe,
     _write_csv,
-    check_count,
     check_episode_memory,
     mean_ci,
     run_episode,
