@@ -32,7 +32,7 @@ import yaml
 
 import slam_env
 from agents.arguments import non_negative_int, positive_int
-from agents.training import VECTORIZATIONS
+from agents.train_config import VECTORIZATIONS
 
 PROG = "slam-env"
 
@@ -228,7 +228,8 @@ def _run_train(args: argparse.Namespace) -> int:
     from rich.console import Console
     from rich.markup import escape
 
-    from agents.training import load_config, train
+    from agents.train_config import load_config
+    from agents.training import train
 
     settings = _rllib_settings(args)
     cfg = load_config(

@@ -42,9 +42,8 @@ from agents.goal_choice import (
     feature_space,
 )
 from agents.goal_env import GoalChoiceEnv
+from agents.train_config import TrainConfig, write_config
 from agents.training import (
-    TrainConfig,
-    _write_yaml,
     checkpoint_callbacks,
     close_envs,
     eval_arguments,
@@ -97,7 +96,7 @@ def train_goal_choice(cfg: TrainConfig) -> Path:
     out = Path(cfg.out_dir)
     out.mkdir(parents=True, exist_ok=True)
     model_path = out / f"{cfg.model_name}.zip"
-    _write_yaml(cfg, out / f"{cfg.model_name}.yaml")
+    write_config(cfg, out / f"{cfg.model_name}.yaml")
     factory = GoalEnvFactory(
         dict(cfg.env_options),
         cfg.worlds,

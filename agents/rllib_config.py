@@ -23,7 +23,7 @@ import socket
 from dataclasses import dataclass
 from typing import Any
 
-from agents.training import ConfigError, TrainConfig
+from agents.train_config import ConfigError, TrainConfig
 
 #: ``vectorization`` (the config's key) → RLlib's ``gym_env_vectorize_mode``.
 VECTORIZE_MODES = {"native": "vector_entry_point", "dummy": "sync", "subproc": "async"}

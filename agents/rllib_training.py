@@ -36,13 +36,8 @@ import numpy as np
 
 from agents.rllib_config import RLlibSettings, check_gpus, check_reachable, ppo_config
 from agents.rllib_env import require_rllib
-from agents.training import (
-    TrainConfig,
-    _check_env,
-    _finite_map,
-    _write_yaml,
-    as_train_config,
-)
+from agents.train_config import TrainConfig, as_train_config, write_config
+from agents.training import _check_env, _finite_map
 
 
 # ---------------------------------------------------------------------- train
@@ -85,7 +80,7 @@ def train_rllib(
         # Nothing is written before the cluster is reached and fits.
         out = Path(cfg.out_dir)
         out.mkdir(parents=True, exist_ok=True)
-        _write_yaml(cfg, out / f"{cfg.model_name}.yaml")
+        write_config(cfg, out / f"{cfg.model_name}.yaml")
         register_rllib_envs()
         return _train(cfg, settings, algo_config, out)
     finally:

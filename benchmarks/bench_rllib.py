@@ -27,7 +27,8 @@ import time
 from typing import Any
 
 from agents.arguments import positive_int
-from agents.training import load_config, make_train_vec_env
+from agents.train_config import load_config
+from agents.training import make_train_vec_env
 
 
 def sb3_sampler(cfg: Any, steps: int) -> Any:

@@ -25,7 +25,7 @@ from pathlib import Path
 import yaml
 
 from agents.arguments import positive_int
-from agents.training import load_config
+from agents.train_config import load_config
 
 # label -> (vectorization, n_envs)
 MODES = {

@@ -69,7 +69,8 @@ def _callback_classes() -> dict[str, type]:
 
 def training_rates(steps: int, repeats: int, n_envs: int) -> dict[str, Any]:
     import agents.slam_callbacks as slam_callbacks
-    from agents.training import load_config, train
+    from agents.train_config import load_config
+    from agents.training import train
 
     original = slam_callbacks.SlamMetricsCallback
     classes = _callback_classes()

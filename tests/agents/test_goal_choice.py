@@ -24,7 +24,8 @@ from agents.goal_env import GoalChoiceEnv
 from agents.goal_training import load_goal_agent
 from agents.registry import SHIPPED_GOAL_POLICY, SHIPPED_POLICY, agent_label, make_agent, make_env
 from agents.suite import suite_settings
-from agents.training import ConfigError, config_from_dict, train
+from agents.train_config import ConfigError, config_from_dict
+from agents.training import train
 from agents.world_sampling import WorldDistribution
 
 INFORMATION_ONLY = {

@@ -7,7 +7,8 @@ import pytest
 
 from agents.goal_env import GoalChoiceEnv
 from agents.goal_training import GoalEnvFactory
-from agents.training import ConfigError, config_from_dict, train
+from agents.train_config import ConfigError, config_from_dict
+from agents.training import train
 from agents.world_sampling import WorldDistribution
 from tests.agents.test_goal_choice import INFORMATION_ONLY, tiny_goal_config
 

@@ -13,13 +13,8 @@ from agents.goal_choice import N_FEATURES, GoalChoiceAgent
 from agents.goal_training import PolicyChooser, load_goal_agent
 from agents.registry import make_agent, make_env
 from agents.suite import suite_settings
-from agents.training import (
-    MAX_MEMORY_FRAMES,
-    MAX_MEMORY_UNITS,
-    ConfigError,
-    config_from_dict,
-    train,
-)
+from agents.train_config import MAX_MEMORY_FRAMES, MAX_MEMORY_UNITS, ConfigError, config_from_dict
+from agents.training import train
 from tests.agents.test_goal_choice import run, tiny_goal_config
 
 GOALS = {"decisions": "goals", "vectorization": "dummy"}

@@ -14,15 +14,15 @@ import yaml
 from agents.evaluation import evaluate
 from agents.ppo import PPOAgent, load_ppo_agent
 from agents.registry import make_agent, make_env
-from agents.training import (
+from agents.train_config import (
     DEFAULT_CONFIG_PATH,
     ConfigError,
     PPOParams,
     TrainConfig,
     config_from_dict,
     load_config,
-    train,
 )
+from agents.training import train
 
 SMALL_WORLD = {"n_landmarks": 5, "width": 8.0, "height": 8.0, "n_obstacles": 1}
 

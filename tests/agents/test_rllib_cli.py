@@ -18,7 +18,7 @@ from agents.rllib_config import (
     log_slam_metrics,
 )
 from agents.rllib_env import RLLIB_INSTALL, RLlibNotInstalledError, require_rllib
-from agents.training import ConfigError, config_from_dict
+from agents.train_config import ConfigError, config_from_dict
 
 
 @pytest.fixture

@@ -9,7 +9,8 @@ import pytest
 from agents.ppo import load_ppo_agent
 from agents.registry import make_agent, make_env
 from agents.suite import agent_observation, suite_settings
-from agents.training import ConfigError, config_from_dict, train
+from agents.train_config import ConfigError, config_from_dict
+from agents.training import train
 from agents.world_sampling import WorldDistribution, WorldSamplingVecEnv, episode_length
 from slam_env.local_observation import local_space
 from tests.test_local_observation import local_space_with_extras
