@@ -119,10 +119,16 @@ class GoalChoiceAgent(FrontierAgent):
             raise ValueError(f"choice must be in [0, {len(CHOICES)}), got {choice!r}")
         chosen = CHOICES[int(choice)]
         pose = self._base.filter.pose
-        if chosen.mode != self._mode:
-            self._set_mode(chosen.mode)
-        self._gain_weight = chosen.gain_weight
         paths, self._paths = self._paths, None
+        mode = chosen.mode
+        if mode == EXPLORE and self._mode == REFINE and self._frontier_terms(pose, paths[0]) is None:
+            # Nothing left to sweep: exploring hands over to the revisits under way, as
+            # the frontier agent's does, keeping their round (a new one would send the
+            # robot back to the landmark it has just revisited) and their path.
+            mode = REFINE
+        if mode != self._mode:
+            self._set_mode(mode)
+        self._gain_weight = chosen.gain_weight
         self._plan(pose, paths)
         if self._follower is None and self._mode != EXPLORE:
             # A revisit with nothing to revisit (no landmark known yet) would leave the

@@ -187,15 +187,25 @@ def test_bad_choices_are_refused_and_change_nothing():
     assert env.action_space.contains(agent.finish_step(0))
 
 
-def test_always_the_frontier_weighting_without_loop_closing_is_the_frontier_agent_so():
-    """Choice 0 every time is the frontier agent with its loop closing switched off."""
-    ours = make_env({}, 120)
-    theirs = make_env({}, 120)
+SMALL_ARENA = {"width": 8.0, "height": 8.0, "n_landmarks": 10, "n_obstacles": 2}
+
+
+@pytest.mark.parametrize(("options", "steps"), [({}, 120), (SMALL_ARENA, 250)])
+def test_always_the_frontier_weighting_without_loop_closing_is_the_frontier_agent_so(
+    options, steps
+):
+    """Choice 0 every time is the frontier agent with its loop closing switched off,
+    also once nothing is left to sweep (the small arena): exploring then hands over to
+    the revisits under way, which go round the landmarks as the frontier agent's do."""
+    ours = make_env(options, steps)
+    theirs = make_env(options, steps)
     no_loops = {"loop_close_std": 1e6, "loop_close_done_std": 1e6}
-    a = run(GoalChoiceAgent(ours, Recorder((0,)), seed=3), ours, seed=4, steps=120)
-    b = run(FrontierAgent(theirs, seed=3, **no_loops), theirs, seed=4, steps=120)
-    assert len(a) == len(b) == 120
+    agent = GoalChoiceAgent(ours, Recorder((0,)), seed=3)
+    a = run(agent, ours, seed=4, steps=steps)
+    b = run(FrontierAgent(theirs, seed=3, **no_loops), theirs, seed=4, steps=steps)
+    assert len(a) == len(b) == steps
     np.testing.assert_array_equal(np.array(a), np.array(b))
+    assert agent.mode == (REFINE if options else EXPLORE)
 
 
 def test_the_env_passes_the_checker_and_repeats_itself():
