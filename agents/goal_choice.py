@@ -121,10 +121,11 @@ class GoalChoiceAgent(FrontierAgent):
         pose = self._base.filter.pose
         paths, self._paths = self._paths, None
         mode = chosen.mode
-        if mode == EXPLORE and self._mode == REFINE and self._frontier_terms(pose, paths[0]) is None:
-            # Nothing left to sweep: exploring hands over to the revisits under way, as
-            # the frontier agent's does, keeping their round (a new one would send the
-            # robot back to the landmark it has just revisited) and their path.
+        revisiting = self._mode == REFINE
+        if mode == EXPLORE and revisiting and self._frontier_terms(pose, paths[0]) is None:
+            # Exploring hands over to the revisits under way, as the frontier agent's
+            # does, keeping their round (a new one would send the robot back to the
+            # landmark it has just revisited) and their path.
             mode = REFINE
         if mode != self._mode:
             self._set_mode(mode)
