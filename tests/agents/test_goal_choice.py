@@ -99,6 +99,7 @@ def test_the_features_say_what_the_docstring_says():
                 break
             action = agent.finish_step(step % 3)
         env.step(action)
+    steps_begun = step + 1  # the pending choice is the step after the `step` env steps
     x = agent.features().astype(np.float64)
     f = agent._base.filter
     cfg = env.unwrapped.config
@@ -113,7 +114,7 @@ def test_the_features_say_what_the_docstring_says():
         3: sig.mean(),
         4: sig.max(),
         5: agent.memory.coverage.fraction_swept(),
-        7: agent._steps / 500,  # a 16 m arena's episode length
+        7: steps_begun / 500,  # a 16 m arena's episode length
         8: cfg.sensor.max_range / 5.0,
         9: cfg.sensor.fov / (2 * math.pi),
         10: 16.0 / 32.0,
