@@ -47,6 +47,10 @@ CHOICES: tuple[Choice, ...] = (
 )
 _MODES = (EXPLORE, LOCALISE, REFINE)
 _EXPLORE_CHOICES = tuple(c for c in CHOICES if c.mode == EXPLORE)
+#: :func:`choice_features` starts with 11 features of the belief, the sweep and the
+#: world (the pose σ first), then the planner's mode one-hot (mode -> index).
+POSE_SIGMA_FEATURE = 0
+MODE_FEATURES = {mode: 11 + i for i, mode in enumerate(_MODES)}
 #: Length of :func:`choice_features`' vector.
 N_FEATURES = 11 + len(_MODES) + 4 * len(_EXPLORE_CHOICES) + 3 + 3
 #: Every feature is clipped to ±this (they are scaled to be of order one).

@@ -20,6 +20,8 @@ the features of its last ``memory_frames`` choices (``frame_stack``, SB3's
 ``RecurrentPPO``). :func:`load_goal_agent` runs any of them with the memory it was
 trained with. ``curriculum`` grows the training worlds' arenas over that share of the
 training (:class:`~agents.goal_env.GoalChoiceEnv`'s ``curriculum_choices``).
+``imitation_choices`` starts the policy from a fixed rule's choices before PPO
+(:mod:`agents.goal_imitation`).
 """
 
 from __future__ import annotations
@@ -123,6 +125,13 @@ def train_goal_choice(cfg: TrainConfig) -> Path:
     interrupted = False
     try:
         model = _algorithm(cfg, train_env, out)
+        imitation = None
+        if cfg.imitation_choices:
+            from agents.goal_imitation import imitate
+
+            imitation = imitate(
+                model, train_env, cfg.imitation_choices, cfg.imitation_epochs, cfg.seed
+            )
         callbacks = checkpoint_callbacks(cfg, out)
         if cfg.eval_freq > 0:
             default_world = dataclasses.replace(factory, worlds=None)
@@ -145,6 +154,7 @@ def train_goal_choice(cfg: TrainConfig) -> Path:
             "vectorization": cfg.vectorization,
             **time_shares(wall, train_env.seconds, model.update_seconds),
             "interrupted": interrupted,
+            "imitation": imitation,
             "recent_episode_return": (
                 round(float(np.mean([e["r"] for e in episodes])), 4) if episodes else None
             ),

@@ -31,6 +31,9 @@ DECISIONS = ("actions", "goals")
 MEMORIES = ("features", "frame_stack", "recurrent")
 MAX_MEMORY_FRAMES = 64
 MAX_MEMORY_UNITS = 1024
+#: At most this many teacher's choices (they are held in memory) and fitting passes.
+MAX_IMITATION_CHOICES = 1_000_000
+MAX_IMITATION_EPOCHS = 1000
 ACTIVATIONS = ("tanh", "relu")
 
 
@@ -81,6 +84,10 @@ class TrainConfig:
     # decisions: goals: the share of the training over which the arena sizes drawn grow
     # from the smallest of worlds.arena_sizes to all of them (0: all from the start).
     curriculum: float = 0.0
+    # decisions: goals: choices a fixed rule makes first (on top of total_timesteps),
+    # and the passes that fit the policy to them before PPO (agents.goal_imitation).
+    imitation_choices: int = 0
+    imitation_epochs: int = 10
     n_envs: int = 2  # sub-envs stepped together (worker processes for "subproc")
     vectorization: str = "native"  # one of VECTORIZATIONS
     seed: int = 0
@@ -188,6 +195,18 @@ def _validate_curriculum(cfg: TrainConfig) -> None:
         _check(cfg.decisions == "goals" and bool(sizes), "curriculum", c, expected)
 
 
+def _validate_imitation(cfg: TrainConfig) -> None:
+    n, top = cfg.imitation_choices, MAX_IMITATION_CHOICES
+    _check(_is_int(n) and 0 <= n <= top, "imitation_choices", n, f"an int in [0, {top}]")
+    epochs, top = cfg.imitation_epochs, MAX_IMITATION_EPOCHS
+    expected = f"an int in [1, {top}]"
+    _check(_is_int(epochs) and 1 <= epochs <= top, "imitation_epochs", epochs, expected)
+    if n:
+        ok = cfg.decisions == "goals" and cfg.memory == "features"
+        expected = "0 unless decisions is goals and memory is features"
+        _check(ok, "imitation_choices", n, expected)
+
+
 def validate_config(cfg: TrainConfig) -> TrainConfig:
     """Check every field's type and range; raise :class:`ConfigError` naming the key."""
     for name in ("total_timesteps", "n_envs", "torch_threads", "eval_episodes"):
@@ -215,6 +234,7 @@ def validate_config(cfg: TrainConfig) -> TrainConfig:
         _check(schedule == "flat", "discovery_schedule", schedule, expected)
     _validate_memory(cfg)
     _validate_curriculum(cfg)
+    _validate_imitation(cfg)
     _check(isinstance(cfg.env_options, dict), "env_options", cfg.env_options, "a mapping")
     _check(
         cfg.max_episode_steps is None
