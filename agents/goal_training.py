@@ -132,6 +132,7 @@ def train_goal_choice(cfg: TrainConfig) -> Path:
             imitation = imitate(
                 model, train_env, cfg.imitation_choices, cfg.imitation_epochs, cfg.seed
             )
+        stepped_before = train_env.seconds  # the teacher's choices are timed on their own
         callbacks = checkpoint_callbacks(cfg, out)
         if cfg.eval_freq > 0:
             default_world = dataclasses.replace(factory, worlds=None)
@@ -152,7 +153,7 @@ def train_goal_choice(cfg: TrainConfig) -> Path:
             "choices_per_s": round(model.num_timesteps / wall, 1) if wall > 0 else None,
             "n_envs": cfg.n_envs,
             "vectorization": cfg.vectorization,
-            **time_shares(wall, train_env.seconds, model.update_seconds),
+            **time_shares(wall, train_env.seconds - stepped_before, model.update_seconds),
             "interrupted": interrupted,
             "imitation": imitation,
             "recent_episode_return": (

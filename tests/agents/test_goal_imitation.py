@@ -168,6 +168,7 @@ def test_goal_training_starts_from_the_teachers_choices(tmp_path):
     assert imitation["teacher"] == "LoopClosingRule" and imitation["epochs"] == 3
     assert imitation["choices"] == 96 and 0.0 <= imitation["accuracy"] <= 1.0
     assert 0.0 < imitation["wall_time_s"] < summary["wall_time_s"] + 600
+    assert summary["env_step_s"] <= summary["wall_time_s"]  # PPO's stepping, not the teacher's
     assert summary["choices"] == plain_summary["choices"]  # PPO's, beside the teacher's
     assert plain_summary["imitation"] is None
     for a, b in zip(first, again, strict=True):
