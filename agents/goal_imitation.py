@@ -23,6 +23,9 @@ from agents.goal_choice import CHOICES, MODE_FEATURES, POSE_SIGMA_FEATURE
 #: The choices of the rule: the frontier agent's weighting, and a loop closure.
 _EXPLORE = next(i for i, c in enumerate(CHOICES) if c.name == "explore")
 _LOCALISE = next(i for i, c in enumerate(CHOICES) if c.mode == LOCALISE)
+#: The unit of the pose-σ feature (m): the loop-closing threshold of the planner the
+#: goal env runs, the frontier agent's with its default parameters.
+_SIGMA_UNIT = FrontierParams().loop_close_std
 #: Demonstrations fitted per gradient step.
 BATCH_SIZE = 256
 
@@ -42,7 +45,7 @@ class LoopClosingRule:
             raise ValueError(f"LoopClosingRule needs 0 < closed_at <= close_at < inf, got {self}")
 
     def __call__(self, features: np.ndarray) -> int:
-        sigma = float(features[POSE_SIGMA_FEATURE]) * FrontierParams().loop_close_std
+        sigma = float(features[POSE_SIGMA_FEATURE]) * _SIGMA_UNIT
         localising = features[MODE_FEATURES[LOCALISE]] > 0.5
         if sigma > self.close_at or (localising and sigma >= self.closed_at):
             return _LOCALISE
