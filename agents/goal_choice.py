@@ -4,7 +4,8 @@ The split of Active Neural SLAM (Chaplot et al., 2020): a learned policy picks t
 goal, a classical planner drives there. Here the planner is the frontier agent's
 (:class:`~agents.frontier.FrontierAgent`: Dijkstra on the known map, pure pursuit,
 backing off what it runs into), and at each of its decisions (no path to follow, a
-goal reached, or ``replan_interval`` steps gone) the policy picks one of
+goal reached, or ``replan_interval`` steps gone; with ``hold_goals``, only those where
+the goal is reached or replanning moves it) the policy picks one of
 :data:`CHOICES`: a frontier target under one of three weightings of unswept area
 against path length, a loop closure on a well-known landmark, or a revisit of the
 least-known one. The frontier agent itself makes those choices by fixed rules (the
@@ -78,14 +79,31 @@ class GoalChoiceAgent(FrontierAgent):
             :data:`CHOICES`; one with a ``reset()`` method (a policy with memory) has it
             called at the start of each episode.
         seed: seed of the agent's random generator (backing off only).
+        hold_goals: a choice holds while its goal stands: at a replan with the goal
+            not yet reached, the planner replans in the chosen mode and asks the policy
+            only if that moves the goal (an option that ends with its goal), instead
+            of asking at every replan.
         **params: overrides of :class:`~agents.frontier.FrontierParams`.
     """
 
     def __init__(
-        self, env: gym.Env, policy: Policy, seed: int | None = None, **params: Any
+        self,
+        env: gym.Env,
+        policy: Policy,
+        seed: int | None = None,
+        hold_goals: bool = False,
+        **params: Any,
     ) -> None:
+        if not isinstance(hold_goals, bool):
+            raise TypeError(f"hold_goals must be a bool, got {hold_goals!r}")
         self._policy = policy  # (before the base class starts the first episode)
+        self._hold_goals = hold_goals
         super().__init__(env, seed=seed, **params)
+
+    @property
+    def hold_goals(self) -> bool:
+        """Whether a choice holds while its goal stands (see the class)."""
+        return self._hold_goals
 
     def _new_episode(self) -> None:
         super()._new_episode()
@@ -111,9 +129,22 @@ class GoalChoiceAgent(FrontierAgent):
         if recovery is not None:
             return self._sent(recovery)
         if self._look_at is None and self._needs_plan(pose):
-            self._paths = self._paths_from(pose)
-            return None
+            paths = self._paths_from(pose)
+            if not (self._hold_goals and self._goal_stands(pose, paths[0])):
+                self._paths = paths
+                return None
+            self._since_plan = 0  # replanned in the chosen mode: the same goal
         return self._sent(self._drive(pose))
+
+    def _goal_stands(self, pose: np.ndarray, dist: np.ndarray) -> bool:
+        """Whether replanning in the current mode keeps the goal being driven to."""
+        if self._follower is None:
+            return False
+        goal = self._memory.grid.cell_of(*self._follower.goal)
+        if self._mode == EXPLORE:
+            return self._frontier_goal(pose, dist) == goal
+        candidate = self._landmark_candidate(dist, self._mode)
+        return candidate is not None and candidate[:2] == (self._target_landmark, goal)
 
     def finish_step(self, choice: int) -> np.ndarray:
         """Plan toward ``choice`` (an index into :data:`CHOICES`) and this step's action."""

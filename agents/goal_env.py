@@ -81,6 +81,8 @@ class GoalChoiceEnv(gym.Env):
             (:meth:`~agents.world_sampling.WorldDistribution.up_to`), so that the
             arenas grow to all K over the first ``curriculum_choices`` choices; 0: all
             from the start.
+        hold_goals: the agent's choices hold while their goals stand
+            (:class:`~agents.goal_choice.GoalChoiceAgent`).
     """
 
     metadata: dict[str, Any] = {"render_modes": []}
@@ -94,6 +96,7 @@ class GoalChoiceEnv(gym.Env):
         discovery_until: float = 1.0,
         discovery_schedule: str = "flat",
         curriculum_choices: int = 0,
+        hold_goals: bool = False,
     ) -> None:
         check_discovery(discovery_bonus, discovery_until, discovery_schedule)
         check_count("curriculum_choices", curriculum_choices, 0)
@@ -114,6 +117,9 @@ class GoalChoiceEnv(gym.Env):
         self._paid_until = 1.0  # landmarks known up to which a discovery earns the bonus
         self._curriculum_choices = curriculum_choices
         self._choices_made = 0  # over all episodes: the curriculum's clock
+        if not isinstance(hold_goals, bool):
+            raise TypeError(f"hold_goals must be a bool, got {hold_goals!r}")
+        self._hold_goals = hold_goals
 
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
@@ -146,7 +152,9 @@ class GoalChoiceEnv(gym.Env):
             raise ValueError(f"worlds: no layable setting in {MAX_DRAWS} draws from {self._worlds}")
         self._env = env
         self._horizon, self._t = horizon, 0
-        self._agent = GoalChoiceAgent(env, _refuse_choice, seed=agent_seed)
+        self._agent = GoalChoiceAgent(
+            env, _refuse_choice, seed=agent_seed, hold_goals=self._hold_goals
+        )
         self._agent.reset()
         self._n_landmarks = max(len(info["landmark_ids"]), 1)
         self._paid_until = self._discovery_until * self._n_landmarks

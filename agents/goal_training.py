@@ -68,6 +68,7 @@ class GoalEnvFactory:
     discovery_until: float = 1.0
     discovery_schedule: str = "flat"
     curriculum_choices: int = 0
+    hold_goals: bool = False
 
     def __call__(self) -> gym.Env:
         import torch
@@ -82,6 +83,7 @@ class GoalEnvFactory:
             self.discovery_until,
             self.discovery_schedule,
             self.curriculum_choices,
+            self.hold_goals,
         )
 
 
@@ -108,6 +110,7 @@ def train_goal_choice(cfg: TrainConfig) -> Path:
         cfg.discovery_until,
         cfg.discovery_schedule,
         math.ceil(cfg.curriculum * cfg.total_timesteps / cfg.n_envs),  # each sub-env's part
+        cfg.hold_goals,
     )
     if cfg.vectorization == "subproc":
         vec_cls, vec_kwargs = SubprocVecEnv, {"start_method": cfg.start_method}
@@ -125,6 +128,7 @@ def train_goal_choice(cfg: TrainConfig) -> Path:
     interrupted = False
     try:
         model = _algorithm(cfg, train_env, out)
+        model.hold_goals = cfg.hold_goals  # saved with it, for load_goal_agent
         imitation = None
         if cfg.imitation_choices:
             from agents.goal_imitation import imitate
@@ -267,4 +271,7 @@ def load_goal_agent(path: str | Path, env: gym.Env, seed: int | None = None) -> 
             f"{path} is not a goal-choosing policy: it takes {space} to {model.action_space}, "
             f"not {feature_space()} (or a stack of them) to {len(CHOICES)} choices"
         )
-    return GoalChoiceAgent(env, PolicyChooser(model, frames), seed=seed)
+    hold_goals = getattr(model, "hold_goals", False)  # False in files from before the key
+    if not isinstance(hold_goals, bool):
+        raise ValueError(f"{path} holds hold_goals={hold_goals!r}, not a bool")
+    return GoalChoiceAgent(env, PolicyChooser(model, frames), seed=seed, hold_goals=hold_goals)

@@ -88,6 +88,9 @@ class TrainConfig:
     # and the passes that fit the policy to them before PPO (agents.goal_imitation).
     imitation_choices: int = 0
     imitation_epochs: int = 10
+    # decisions: goals: a choice holds while its goal stands, the policy asked only
+    # when the goal is reached or moves (agents.goal_choice.GoalChoiceAgent).
+    hold_goals: bool = False
     n_envs: int = 2  # sub-envs stepped together (worker processes for "subproc")
     vectorization: str = "native"  # one of VECTORIZATIONS
     seed: int = 0
@@ -207,6 +210,13 @@ def _validate_imitation(cfg: TrainConfig) -> None:
         _check(ok, "imitation_choices", n, expected)
 
 
+def _validate_hold_goals(cfg: TrainConfig) -> None:
+    _check(isinstance(cfg.hold_goals, bool), "hold_goals", cfg.hold_goals, "true or false")
+    if cfg.hold_goals:
+        expected = "false unless decisions is goals"
+        _check(cfg.decisions == "goals", "hold_goals", cfg.hold_goals, expected)
+
+
 def validate_config(cfg: TrainConfig) -> TrainConfig:
     """Check every field's type and range; raise :class:`ConfigError` naming the key."""
     for name in ("total_timesteps", "n_envs", "torch_threads", "eval_episodes"):
@@ -235,6 +245,7 @@ def validate_config(cfg: TrainConfig) -> TrainConfig:
     _validate_memory(cfg)
     _validate_curriculum(cfg)
     _validate_imitation(cfg)
+    _validate_hold_goals(cfg)
     _check(isinstance(cfg.env_options, dict), "env_options", cfg.env_options, "a mapping")
     _check(
         cfg.max_episode_steps is None

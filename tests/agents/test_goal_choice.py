@@ -142,8 +142,9 @@ def test_a_choice_sets_the_planners_mode_and_weighting():
     assert env.action_space.contains(action)
     assert agent.mode == EXPLORE and agent._gain_weight == CHOICES[1].gain_weight == 0.5
     assert agent.goal is not None or agent._look_at is not None  # a path, or a point to face
-    # Nothing is known yet: neither a loop closure nor a revisit has a landmark.
-    assert first[-6] == 0.0 and first[-3] == 0.0
+    # Nothing is known yet: neither a loop closure nor a revisit has a landmark, and
+    # their features are all zero.
+    assert not first[-6:].any()
     for _ in range(60):  # explore on, then stop at the next choice
         env.step(action)
         action = agent.begin_step()
