@@ -100,6 +100,8 @@ class GoalChoiceEnv(gym.Env):
     ) -> None:
         check_discovery(discovery_bonus, discovery_until, discovery_schedule)
         check_count("curriculum_choices", curriculum_choices, 0)
+        if not isinstance(hold_goals, bool):
+            raise TypeError(f"hold_goals must be a bool, got {hold_goals!r}")
         self.observation_space = feature_space()
         self.action_space = choice_space()
         self._options = dict(env_options or {})
@@ -117,8 +119,6 @@ class GoalChoiceEnv(gym.Env):
         self._paid_until = 1.0  # landmarks known up to which a discovery earns the bonus
         self._curriculum_choices = curriculum_choices
         self._choices_made = 0  # over all episodes: the curriculum's clock
-        if not isinstance(hold_goals, bool):
-            raise TypeError(f"hold_goals must be a bool, got {hold_goals!r}")
         self._hold_goals = hold_goals
 
     def reset(

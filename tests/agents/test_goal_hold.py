@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from stable_baselines3 import PPO
 
 from agents.frontier import EXPLORE, REFINE
 from agents.goal_choice import GoalChoiceAgent
@@ -125,3 +126,8 @@ def test_a_policy_trained_holding_goals_runs_holding_them(tmp_path):
     assert load_goal_agent(SHIPPED_GOAL_POLICY, env, seed=0).hold_goals is False  # before it
     plain = train(tiny_goal_config(tmp_path / "plain"))
     assert load_goal_agent(plain, env, seed=0).hold_goals is False
+    model = PPO.load(path, device="cpu")
+    model.hold_goals = 1  # a file that says something else than true or false
+    model.save(tmp_path / "odd.zip")
+    with pytest.raises(ValueError, match="hold_goals=1, not a bool"):
+        load_goal_agent(tmp_path / "odd.zip", env, seed=0)
