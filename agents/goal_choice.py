@@ -60,6 +60,13 @@ FEATURE_BOUND = 10.0
 Policy = Callable[[np.ndarray], int]
 
 
+def check_hold_goals(hold_goals: Any) -> None:
+    """``TypeError`` unless ``hold_goals`` is a bool (:class:`GoalChoiceAgent`'s and
+    :class:`~agents.goal_env.GoalChoiceEnv`'s argument)."""
+    if not isinstance(hold_goals, bool):
+        raise TypeError(f"hold_goals must be a bool, got {hold_goals!r}")
+
+
 def choice_space() -> gym.spaces.Discrete:
     """The policy's action: an index into :data:`CHOICES`."""
     return gym.spaces.Discrete(len(CHOICES))
@@ -94,8 +101,7 @@ class GoalChoiceAgent(FrontierAgent):
         hold_goals: bool = False,
         **params: Any,
     ) -> None:
-        if not isinstance(hold_goals, bool):
-            raise TypeError(f"hold_goals must be a bool, got {hold_goals!r}")
+        check_hold_goals(hold_goals)
         self._policy = policy  # (before the base class starts the first episode)
         self._hold_goals = hold_goals
         super().__init__(env, seed=seed, **params)

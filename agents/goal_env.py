@@ -23,7 +23,7 @@ import gymnasium as gym
 import numpy as np
 
 from agents.arguments import check_count
-from agents.goal_choice import GoalChoiceAgent, choice_space, feature_space
+from agents.goal_choice import GoalChoiceAgent, check_hold_goals, choice_space, feature_space
 from agents.registry import make_env
 from agents.world_sampling import MAX_DRAWS, REFERENCE_ARENA, WorldDistribution, episode_length
 
@@ -100,8 +100,7 @@ class GoalChoiceEnv(gym.Env):
     ) -> None:
         check_discovery(discovery_bonus, discovery_until, discovery_schedule)
         check_count("curriculum_choices", curriculum_choices, 0)
-        if not isinstance(hold_goals, bool):
-            raise TypeError(f"hold_goals must be a bool, got {hold_goals!r}")
+        check_hold_goals(hold_goals)
         self.observation_space = feature_space()
         self.action_space = choice_space()
         self._options = dict(env_options or {})
