@@ -27,12 +27,16 @@ SUITE_METRICS: dict[str, str] = {
 }
 
 
+def landmarks_needed(n_landmarks: int, share: float) -> int:
+    """Landmarks in the belief that make ``share`` of ``n_landmarks`` (at least one)."""
+    return max(math.ceil(share * n_landmarks - 1e-9), 1)
+
+
 def steps_to_share(known: np.ndarray, n_landmarks: int, share: float) -> tuple[int, bool]:
     """The first step at which ``known`` (landmarks in the belief after each step, step
-    0 after reset) reaches ``share`` of ``n_landmarks`` (at least one landmark), and
+    0 after reset) reaches :func:`landmarks_needed` for ``share`` of ``n_landmarks``, and
     whether it did; never reached: the episode's length, False (censored)."""
-    need = max(math.ceil(share * n_landmarks - 1e-9), 1)
-    reached = np.flatnonzero(known >= need)
+    reached = np.flatnonzero(known >= landmarks_needed(n_landmarks, share))
     if reached.size:
         return int(reached[0]), True
     return int(known.size - 1), False

@@ -1,0 +1,196 @@
+"""What the goal choices could give: a lookahead over the exploring choices, in
+hindsight or from the belief, beside ``frontier``, on one setting of the suite.
+
+    .venv/bin/python benchmarks/bench_choice_oracle.py [--setting default] [--episodes 30]
+        [--world hindsight|belief] [--samples 4] [--seed 10000]
+
+At every choice of a :class:`~agents.goal_choice.GoalChoiceAgent` made before 90% of
+the landmarks are mapped, each exploring choice (the three frontier weightings) is
+tried on a copy of the env and the agent, the fixed rule choosing after it
+(:class:`~agents.goal_imitation.LoopClosingRule`, loop closures from a pose σ of 0.4 m
+until below 0.2 m), up to the step at which 90% are mapped. The choice that gets there
+soonest is taken (the rule's own on a tie); the rule's loop closures are left alone.
+
+* ``hindsight``: each try runs in the copy's own world with the noise to come, so its
+  count is exact: what the best choice at every choice would give, which no policy can
+  make (it knows where the unmapped landmarks are).
+* ``belief``: ``--samples`` copies per choice (the same ones for every choice), their
+  landmarks not yet mapped redrawn uniformly over the unswept free area and their noise
+  drawn afresh: what looking ahead from the belief finds.
+
+Prints, per agent, the means of steps to 90% mapped, final entropy and collisions per
+100 steps, and the lookahead's paired difference from ``frontier`` (mean ± standard
+error, and the seeds it is ahead on). The episodes are the suite's: ``reset(seed=seed
++ i)``, the setting's length.
+"""
+
+from __future__ import annotations
+
+import argparse
+import copy
+import dataclasses
+import math
+from collections.abc import Sequence
+
+import gymnasium as gym
+import numpy as np
+
+from agents.arguments import non_negative_int, positive_int
+from agents.evaluation import run_episode
+from agents.goal_choice import CHOICES, EXPLORE, GoalChoiceAgent
+from agents.goal_imitation import LoopClosingRule
+from agents.registry import make_agent, make_env
+from agents.suite import SUITE_SEED, suite_settings
+from agents.suite_metrics import landmarks_needed, suite_metrics
+from slam_env.kernels.geometry import set_world
+
+MAPPED_SHARE = 0.9
+EXPLORING = tuple(i for i, choice in enumerate(CHOICES) if choice.mode == EXPLORE)
+METRICS = ("steps_to_90", "final_entropy", "collisions_per_100")
+#: The choices after each try, and the loop closures: the frontier agent's own rule.
+RULE = LoopClosingRule(close_at=0.4, closed_at=0.2)
+
+
+def redraw_unmapped(env: gym.Env, agent: GoalChoiceAgent, rng: np.random.Generator) -> None:
+    """Move the landmarks the filter has not mapped to points drawn uniformly over the
+    agent's unswept free cells (the world's clearance from walls and obstacles, its
+    spacing between landmarks; the last of 50 tries if none is far enough from the
+    others), keep the robot where it is, and give the env's noise a new generator
+    from ``rng``. Reaches into the env's core: a measurement tool, not an API."""
+    base = env.unwrapped
+    worlds = base._core.worlds
+    world = worlds.worlds[0]
+    layout = world.layout
+    cfg = base.config.world
+    mapped = set(base.filter.belief_views()[2].tolist())
+    memory = agent._memory
+    grid = memory.grid
+    unswept = memory.on_planning_grid(agent._unswept().astype(np.float64)) > 0.5
+    cells = np.argwhere(unswept & (grid.clearance >= cfg.clearance + grid.resolution))
+    positions = np.array(layout.landmark_positions, dtype=np.float64)
+    unmapped = [i for i, lid in enumerate(layout.landmark_ids) if lid not in mapped]
+    if unmapped and len(cells):
+        placed = [positions[i] for i in range(len(positions)) if i not in unmapped]
+        for i in unmapped:
+            for _ in range(50):
+                row, col = cells[rng.integers(len(cells))]
+                point = np.array(grid.center(row, col))
+                point += rng.uniform(-0.5, 0.5, 2) * grid.resolution
+                if all(math.dist(point, q) >= cfg.landmark_spacing for q in placed):
+                    break
+            positions[i] = point
+            placed.append(point)
+        redrawn = dataclasses.replace(layout, landmark_positions=tuple(map(tuple, positions)))
+        pose = world.pose
+        world.relayout(redrawn)
+        world._place(*pose)
+        worlds.landmarks[0] = world.landmark_positions
+        geometry = set_world(worlds.geometry, 0, redrawn, cfg.wall_thickness)
+        if geometry is not worlds.geometry:
+            worlds.geometry, worlds.geometry_fields = geometry, tuple(geometry)
+    base._core.rngs[0] = np.random.default_rng(rng.integers(2**63))
+
+
+def steps_to_mapped(
+    env: gym.Env, agent: GoalChoiceAgent, choice: int, rule: LoopClosingRule, need: int
+) -> int:
+    """The agent's step count at which ``need`` landmarks are mapped, taking ``choice``
+    now and the rule's choices after it (on ``env`` and ``agent`` themselves); an
+    episode that ends first counts its length plus the env's limit."""
+    agent._policy = rule
+    action = agent.finish_step(choice)
+    while True:
+        _, _, terminated, truncated, _ = env.step(action)
+        if env.unwrapped.filter.n_landmarks >= need:
+            return agent._steps
+        if terminated or truncated:
+            return agent._steps + env.spec.max_episode_steps
+        action = agent.begin_step()
+        if action is None:
+            action = agent.finish_step(rule(agent.features()))
+
+
+class Lookahead:
+    """The policy of a :class:`GoalChoiceAgent` that tries the exploring choices (see
+    the module); set :attr:`agent` to the agent it drives."""
+
+    def __init__(self, env: gym.Env, world: str, samples: int, seed: int) -> None:
+        self.env, self.world, self.samples = env, world, samples
+        self.rule = RULE
+        self.rng = np.random.default_rng(seed)
+        self.agent: GoalChoiceAgent | None = None
+
+    def __call__(self, features: np.ndarray) -> int:
+        own = self.rule(features)
+        need = landmarks_needed(self.env.unwrapped.n_landmarks, MAPPED_SHARE)
+        if own not in EXPLORING or self.env.unwrapped.filter.n_landmarks >= need:
+            return own
+        costs = np.zeros(len(EXPLORING))
+        for _ in range(self.samples if self.world == "belief" else 1):
+            seed = self.rng.integers(2**63)
+            for k, choice in enumerate(EXPLORING):
+                env, agent = copy.deepcopy((self.env, self.agent))
+                if self.world == "belief":
+                    redraw_unmapped(env, agent, np.random.default_rng(seed))
+                costs[k] += steps_to_mapped(env, agent, choice, self.rule, need)
+        best = EXPLORING[int(np.argmin(costs))]
+        return own if costs[EXPLORING.index(own)] == costs.min() else best
+
+
+def lookahead_agent(env: gym.Env, world: str, samples: int, seed: int) -> GoalChoiceAgent:
+    policy = Lookahead(env, world, samples, seed)
+    agent = GoalChoiceAgent(env, policy, seed=seed)
+    policy.agent = agent
+    return agent
+
+
+def compare(
+    setting: str, episodes: int, world: str, samples: int, seed: int
+) -> dict[str, list[dict[str, float]]]:
+    """The suite metrics of ``frontier`` and the lookahead on the setting's episodes."""
+    (chosen,) = [s for s in suite_settings("default") if s.name == setting]
+    seeds = [seed + i for i in range(episodes)]
+    out: dict[str, list[dict[str, float]]] = {}
+    for name in ("frontier", f"lookahead ({world})"):
+        env = make_env(chosen.env_options, chosen.steps)
+        try:
+            if name == "frontier":
+                agent = make_agent("frontier", env, seeds[0])
+            else:
+                agent = lookahead_agent(env, world, samples, seeds[0])
+            out[name] = [suite_metrics(run_episode(env, agent, s)) for s in seeds]
+        finally:
+            env.close()
+    return out
+
+
+def report(results: dict[str, list[dict[str, float]]]) -> str:
+    (frontier, lookahead) = results.values()
+    lines = ["| agent | " + " | ".join(METRICS) + " |", "|---" * (len(METRICS) + 1) + "|"]
+    for name, rows in results.items():
+        means = [f"{np.mean([r[m] for r in rows]):.2f}" for m in METRICS]
+        lines.append(f"| {name} | " + " | ".join(means) + " |")
+    cells = []
+    for m in METRICS:
+        d = np.array([a[m] - b[m] for a, b in zip(lookahead, frontier, strict=True)])
+        se = d.std(ddof=1) / math.sqrt(len(d)) if len(d) > 1 else math.nan
+        cells.append(f"{d.mean():+.2f} ± {se:.2f} ({int((d < 0).sum())} lower)")
+    lines.append("| lookahead − frontier | " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+def main(argv: Sequence[str] | None = None) -> None:
+    names = [s.name for s in suite_settings("default")]
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--setting", choices=names, default="default")
+    parser.add_argument("--episodes", type=positive_int, default=30)
+    parser.add_argument("--world", choices=("hindsight", "belief"), default="hindsight")
+    parser.add_argument("--samples", type=positive_int, default=4)
+    parser.add_argument("--seed", type=non_negative_int, default=SUITE_SEED)
+    args = parser.parse_args(argv)
+    results = compare(args.setting, args.episodes, args.world, args.samples, args.seed)
+    print(report(results))
+
+
+if __name__ == "__main__":
+    main()
