@@ -65,7 +65,7 @@ def redraw_unmapped(env: gym.Env, agent: GoalChoiceAgent, rng: np.random.Generat
     mapped = set(base.filter.belief_views()[2].tolist())
     memory = agent._memory
     grid = memory.grid
-    unswept = memory.on_planning_grid(agent._unswept().astype(np.float64)) > 0.5
+    unswept = memory.on_planning_grid(agent._unswept())
     cells = np.argwhere(unswept & (grid.clearance >= cfg.clearance + grid.resolution))
     positions = np.array(layout.landmark_positions, dtype=np.float64)
     unmapped = [i for i, lid in enumerate(layout.landmark_ids) if lid not in mapped]

@@ -76,7 +76,7 @@ def test_a_redrawn_world_moves_only_the_unmapped_landmarks():
     np.testing.assert_array_equal(c_env.unwrapped._core.worlds.landmarks[0], after)
     assert world.pose == pose
     memory = c_agent._memory
-    unswept = memory.on_planning_grid(c_agent._unswept().astype(np.float64)) > 0.5
+    unswept = memory.on_planning_grid(c_agent._unswept())
     spacing = base.config.world.landmark_spacing
     for i, lid in enumerate(base.layout.landmark_ids):
         if lid in mapped:
