@@ -116,12 +116,11 @@ class Lookahead:
 
     def __init__(self, env: gym.Env, world: str, samples: int, seed: int) -> None:
         self.env, self.world, self.samples = env, world, samples
-        self.rule = RULE
-        self.rng = np.random.default_rng(seed)
+        self.rng = np.random.default_rng(seed)  # the belief's drawn worlds
         self.agent: GoalChoiceAgent | None = None
 
     def __call__(self, features: np.ndarray) -> int:
-        own = self.rule(features)
+        own = RULE(features)
         need = landmarks_needed(self.env.unwrapped.n_landmarks, MAPPED_SHARE)
         if own not in EXPLORING or self.env.unwrapped.filter.n_landmarks >= need:
             return own
@@ -132,7 +131,7 @@ class Lookahead:
                 env, agent = copy.deepcopy((self.env, self.agent))
                 if self.world == "belief":
                     redraw_unmapped(env, agent, np.random.default_rng(seed))
-                costs[k] += steps_to_mapped(env, agent, choice, self.rule, need)
+                costs[k] += steps_to_mapped(env, agent, choice, RULE, need)
         best = EXPLORING[int(np.argmin(costs))]
         return own if costs[EXPLORING.index(own)] == costs.min() else best
 
