@@ -5,7 +5,7 @@
 (:func:`demonstrate`), the policy is fitted to them by cross-entropy and its value to
 their discounted returns (:func:`fit_policy`, ``imitation_epochs`` passes), and PPO
 then trains as configured, from there. Behaviour cloning as a start for reinforcement
-learning; the README measures what it gives (a policy that stays close to its teacher).
+learning; docs/goal_policy.md measures what it gives (a policy that stays close to its teacher).
 """
 
 from __future__ import annotations
@@ -35,7 +35,7 @@ class LoopClosingRule:
     """The teacher: the frontier agent's weighting at every choice, and a loop closure
     once the pose σ passes ``close_at`` (m), held until it falls below ``closed_at``
     (the frontier agent's own rule closes at 0.4 m; 0.6 m puts the loop closures off
-    and maps faster on the default world, README). A policy over the features alone."""
+    and maps faster on the default world, docs/goal_policy.md). A policy over the features alone."""
 
     close_at: float = 0.6
     closed_at: float = 0.2

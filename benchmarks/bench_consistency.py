@@ -4,7 +4,7 @@
         [--odometry-scale 1] [--seed 0] [--variants known/standard ideal jcbb/fej ...]
         [--clutter 0]
 
-The settings the README records: the defaults, ``--odometry-scale 4 --steps 1000``,
+The settings docs/benchmarks.md records: the defaults, ``--odometry-scale 4 --steps 1000``,
 ``--odometry-scale 16 --steps 1000`` and ``--clutter 0.1``. A run of the defaults, every
 row, takes about 30 s on two shared cores (env 4–7 s, filters ~12 s of which the
 dense ideal EKF ~6 s, smoother 7–13 s); the 1,000-step ones 1–4 minutes.

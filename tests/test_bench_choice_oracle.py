@@ -1,5 +1,5 @@
-"""benchmarks/bench_choice_oracle.py, the command behind the README's "what the goal
-choices can give": a try in hindsight predicts its episode exactly, so the hindsight
+"""benchmarks/bench_choice_oracle.py, the command behind "what the choices can give"
+in docs/goal_policy.md: a try in hindsight predicts its episode exactly, so the hindsight
 lookahead is never behind the rule it tries against; a redrawn world moves only the
 landmarks not yet mapped, into the unswept free area, and keeps the robot."""
 

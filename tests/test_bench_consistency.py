@@ -1,4 +1,4 @@
-"""benchmarks/bench_consistency.py, the command behind the README's consistency tables:
+"""benchmarks/bench_consistency.py, the command behind docs/benchmarks.md's consistency tables:
 a tiny run prints a row per variant asked for, and values a user can type that the env
 would refuse end in argparse's usage error (exit 2) before any episode is run."""
 

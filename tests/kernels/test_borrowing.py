@@ -55,7 +55,7 @@ ENV_STEP = (
 @pytest.mark.parametrize("dispatcher", EKF_STEP + ENV_STEP, ids=lambda d: d.__name__)
 def test_the_steps_are_compiled_without_reference_counting(dispatcher) -> None:
     # With counting, each array a call is passed costs an atomic increment and
-    # decrement (a quarter of EKFSLAM's step at N = 20, README "Filter step"), and
+    # decrement (a quarter of EKFSLAM's step at N = 20, docs/benchmarks.md "Filter step"), and
     # each array passed from Python a new wrapper (about 80 ns: 3.4 µs of the 43
     # arrays of raw_step's call).
     assert dispatcher.targetoptions.get("_nrt") is False
