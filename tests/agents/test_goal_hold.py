@@ -54,7 +54,7 @@ def replan_due(agent: GoalChoiceAgent) -> np.ndarray | None:
     return agent.begin_step()
 
 
-@pytest.mark.parametrize(("choice", "explore_steps"), [(0, 0), (4, 60)])
+@pytest.mark.parametrize(("choice", "explore_steps"), [(0, 0), (4, 40)])
 def test_a_held_goal_that_stands_is_driven_on_without_asking(choice, explore_steps):
     for hold in (False, True):
         agent, env = planned(choice, hold, explore_steps)
@@ -80,7 +80,7 @@ def test_a_held_frontier_goal_swept_meanwhile_asks_again():
 
 
 def test_a_held_revisit_whose_landmark_is_done_meanwhile_asks_again():
-    agent, _ = planned(4, hold=True, explore_steps=60)
+    agent, _ = planned(4, hold=True, explore_steps=40)
     target = agent.target_landmark
     agent._tried.add(target)  # revisited meanwhile: another one is next
     assert replan_due(agent) is None
