@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from stable_baselines3 import PPO
 
-from agents.frontier import EXPLORE, REFINE
+from agents.frontier import EXPLORE, REFINE, FrontierAgent
 from agents.goal_choice import GoalChoiceAgent
 from agents.goal_env import GoalChoiceEnv
 from agents.goal_training import load_goal_agent
@@ -77,6 +77,23 @@ def test_a_held_frontier_goal_swept_meanwhile_asks_again():
     assert replan_due(agent) is None
     agent.finish_step(0)
     assert agent.goal is not None and not np.array_equal(agent.goal, goal)
+
+
+def test_a_replan_whose_held_goal_moved_computes_the_frontier_terms_once(monkeypatch):
+    """Whether the goal stands, the features and the plan share one computation."""
+    agent, _ = planned(0, hold=True)
+    agent.memory.coverage.abandoned[agent._window(agent.goal)] = True  # the goal moves
+    compute, calls = FrontierAgent._frontier_terms, []
+
+    def counted(self, pose, dist):
+        calls.append(dist)
+        return compute(self, pose, dist)
+
+    monkeypatch.setattr(FrontierAgent, "_frontier_terms", counted)
+    assert replan_due(agent) is None
+    agent.features()
+    agent.finish_step(0)
+    assert len(calls) == 1
 
 
 def test_a_held_revisit_whose_landmark_is_done_meanwhile_asks_again():
