@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 from stable_baselines3 import PPO
@@ -145,6 +147,7 @@ def test_a_policy_trained_holding_goals_runs_holding_them(tmp_path):
     assert load_goal_agent(plain, env, seed=0).hold_goals is False
     model = PPO.load(path, device="cpu")
     model.hold_goals = 1  # a file that says something else than true or false
-    model.save(tmp_path / "odd.zip")
-    with pytest.raises(ValueError, match="hold_goals=1, not a bool"):
-        load_goal_agent(tmp_path / "odd.zip", env, seed=0)
+    odd = tmp_path / "odd.zip"
+    model.save(odd)
+    with pytest.raises(ValueError, match=re.escape(f"{odd}: hold_goals must be a bool, got 1")):
+        load_goal_agent(odd, env, seed=0)
