@@ -20,6 +20,8 @@ EXPLORE, LOCALISE, REFINE = "explore", "localise", "refine"
 #: toward the nearest free cell within POCKET_EXIT cells of a part at least this large.
 POCKET_AREA = 1.0
 POCKET_EXIT = 8
+#: What :meth:`FrontierAgent._frontier_terms` gives per planning cell.
+FrontierTerms = tuple[np.ndarray, np.ndarray, np.ndarray]
 
 
 @dataclass(frozen=True)
@@ -277,9 +279,7 @@ class FrontierAgent(HeuristicAgent):
         points[0] = pose[:2]
         self._follower = PathFollower(points, self.params.lookahead, self._control)
 
-    def _frontier_terms(
-        self, pose: np.ndarray, dist: np.ndarray
-    ) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+    def _frontier_terms(self, pose: np.ndarray, dist: np.ndarray) -> FrontierTerms | None:
         """Per planning cell: its unswept area around it (m²), |bearing| to it (rad),
         and whether it is a reachable frontier; None when no cell is one."""
         mem = self._memory
@@ -299,7 +299,7 @@ class FrontierAgent(HeuristicAgent):
         return gain, bearing, ok
 
     def _frontier_score(
-        self, dist: np.ndarray, terms: tuple[np.ndarray, np.ndarray, np.ndarray], gain_weight: float
+        self, dist: np.ndarray, terms: FrontierTerms, gain_weight: float
     ) -> np.ndarray:
         """Path length − gain_weight·unswept area + turn_weight·|bearing|; inf off the
         frontier."""

@@ -26,7 +26,7 @@ from typing import Any, NamedTuple
 import gymnasium as gym
 import numpy as np
 
-from agents.frontier import EXPLORE, LOCALISE, REFINE, FrontierAgent
+from agents.frontier import EXPLORE, LOCALISE, REFINE, FrontierAgent, FrontierTerms
 from agents.world_sampling import episode_length
 
 
@@ -118,6 +118,7 @@ class GoalChoiceAgent(FrontierAgent):
             reset()
         self._steps = 0  # steps of this episode so far
         self._paths: tuple[np.ndarray, np.ndarray] | None = None  # of a pending choice
+        self._terms: tuple[np.ndarray, FrontierTerms | None] | None = None  # (dist, terms)
 
     # ------------------------------------------------------------------ decision
     def _act(self) -> np.ndarray:
@@ -151,6 +152,15 @@ class GoalChoiceAgent(FrontierAgent):
             return self._frontier_goal(pose, dist) == goal
         candidate = self._landmark_candidate(dist, self._mode)
         return candidate is not None and candidate[:2] == (self._target_landmark, goal)
+
+    def _frontier_terms(self, pose: np.ndarray, dist: np.ndarray) -> FrontierTerms | None:
+        # The terms of a step's paths (``dist``, from the step's pose) serve whether a
+        # held goal stands, the features and the plan: computed once. Nothing between
+        # these uses changes the sweep (but for giving up what is out of reach when the
+        # terms are None, which leaves them None).
+        if self._terms is None or self._terms[0] is not dist:
+            self._terms = (dist, super()._frontier_terms(pose, dist))
+        return self._terms[1]
 
     def finish_step(self, choice: int) -> np.ndarray:
         """Plan toward ``choice`` (an index into :data:`CHOICES`) and this step's action."""

@@ -40,6 +40,7 @@ from agents.goal_choice import (
     FEATURE_BOUND,
     N_FEATURES,
     GoalChoiceAgent,
+    check_hold_goals,
     choice_space,
     feature_space,
 )
@@ -272,6 +273,8 @@ def load_goal_agent(path: str | Path, env: gym.Env, seed: int | None = None) -> 
             f"not {feature_space()} (or a stack of them) to {len(CHOICES)} choices"
         )
     hold_goals = getattr(model, "hold_goals", False)  # False in files from before the key
-    if not isinstance(hold_goals, bool):
-        raise ValueError(f"{path} holds hold_goals={hold_goals!r}, not a bool")
+    try:
+        check_hold_goals(hold_goals)
+    except TypeError as exc:  # a bad file, not a bad argument
+        raise ValueError(f"{path}: {exc}") from None
     return GoalChoiceAgent(env, PolicyChooser(model, frames), seed=seed, hold_goals=hold_goals)

@@ -419,13 +419,10 @@ class SmootherTally:
 
 
 def evaluate(
-    args: argparse.Namespace, rows: Sequence[str]
+    env: gym.Env, args: argparse.Namespace, rows: Sequence[str]
 ) -> tuple[dict[str, Tally], SmootherTally, dict[str, float]]:
-    """Every episode through the filter of every row (:data:`ROWS`) and the smoother;
-    also the seconds spent on the env and driver, the filters and the smoother."""
-    env = gym.make(
-        ENV_ID, max_episode_steps=args.steps, **env_options(args.odometry_scale, args.clutter)
-    )
+    """Every episode (on ``env``) through the filter of every row (:data:`ROWS`) and the
+    smoother; also the seconds spent on the env and driver, the filters and the smoother."""
     tallies = {name: Tally() for name in rows}
     ls = SmootherTally()
     clock = {"env": 0.0, "filters": 0.0, "smoother": 0.0}
@@ -514,7 +511,8 @@ def print_table(
         )
 
 
-def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
+def parse_args(argv: Sequence[str] | None = None) -> tuple[argparse.Namespace, gym.Env]:
+    """The arguments, and the env the episodes run on."""
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--runs", type=positive_int, default=30, help="Monte Carlo episodes")
     parser.add_argument("--steps", type=positive_int, default=500, help="steps per episode")
@@ -532,19 +530,22 @@ def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
     args = parser.parse_args(argv)
     if not args.odometry_scale > 0.0:
         parser.error(f"--odometry-scale must be > 0, got {args.odometry_scale}")
-    try:  # the env's own checks (ranges, the noise budget), before any episode is run
-        gym.make(ENV_ID, **env_options(args.odometry_scale, args.clutter)).close()
-    except ValueError as err:
-        parser.error(f"--odometry-scale {args.odometry_scale}, --clutter {args.clutter}: {err}")
     unknown = [v for v in args.variants if v not in ROWS]
     if unknown:
         parser.error(f"unknown variants {unknown}; choose from {list(ROWS)}")
-    return args
+    try:  # the env's own checks (ranges, the noise budget), before any episode is run
+        env = gym.make(
+            ENV_ID, max_episode_steps=args.steps, **env_options(args.odometry_scale, args.clutter)
+        )
+    except ValueError as err:
+        parser.error(f"--odometry-scale {args.odometry_scale}, --clutter {args.clutter}: {err}")
+    return args, env
 
 
 def main(argv: Sequence[str] | None = None) -> None:
-    args = parse_args(argv)
-    print_table(args, *evaluate(args, args.variants))
+    args, env = parse_args(argv)
+    with env:
+        print_table(args, *evaluate(env, args, args.variants))
 
 
 if __name__ == "__main__":

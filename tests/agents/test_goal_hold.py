@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pytest
 from stable_baselines3 import PPO
 
-from agents.frontier import EXPLORE, REFINE
+from agents.frontier import EXPLORE, REFINE, FrontierAgent
 from agents.goal_choice import GoalChoiceAgent
 from agents.goal_env import GoalChoiceEnv
 from agents.goal_training import load_goal_agent
@@ -79,6 +81,23 @@ def test_a_held_frontier_goal_swept_meanwhile_asks_again():
     assert agent.goal is not None and not np.array_equal(agent.goal, goal)
 
 
+def test_a_replan_whose_held_goal_moved_computes_the_frontier_terms_once(monkeypatch):
+    """Whether the goal stands, the features and the plan share one computation."""
+    agent, _ = planned(0, hold=True)
+    agent.memory.coverage.abandoned[agent._window(agent.goal)] = True  # the goal moves
+    compute, calls = FrontierAgent._frontier_terms, []
+
+    def counted(self, pose, dist):
+        calls.append(dist)
+        return compute(self, pose, dist)
+
+    monkeypatch.setattr(FrontierAgent, "_frontier_terms", counted)
+    assert replan_due(agent) is None
+    agent.features()
+    agent.finish_step(0)
+    assert len(calls) == 1
+
+
 def test_a_held_revisit_whose_landmark_is_done_meanwhile_asks_again():
     agent, _ = planned(4, hold=True, explore_steps=40)
     target = agent.target_landmark
@@ -128,6 +147,7 @@ def test_a_policy_trained_holding_goals_runs_holding_them(tmp_path):
     assert load_goal_agent(plain, env, seed=0).hold_goals is False
     model = PPO.load(path, device="cpu")
     model.hold_goals = 1  # a file that says something else than true or false
-    model.save(tmp_path / "odd.zip")
-    with pytest.raises(ValueError, match="hold_goals=1, not a bool"):
-        load_goal_agent(tmp_path / "odd.zip", env, seed=0)
+    odd = tmp_path / "odd.zip"
+    model.save(odd)
+    with pytest.raises(ValueError, match=re.escape(f"{odd}: hold_goals must be a bool, got 1")):
+        load_goal_agent(odd, env, seed=0)
