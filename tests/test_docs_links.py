@@ -35,7 +35,7 @@ def relative_links(page: Path) -> list[str]:
 def test_heading_anchor_spells_as_github_does():
     assert heading_anchor("The revisits' round, kept") == "the-revisits-round-kept"
     assert (
-        heading_anchor("### `slam_env/Landmarks-v0` — the raw sensor stream"[4:])
+        heading_anchor("`slam_env/Landmarks-v0` — the raw sensor stream")
         == "slam_envlandmarks-v0--the-raw-sensor-stream"
     )
 
