@@ -2,14 +2,17 @@
 hindsight or from the belief, beside ``frontier``, on one setting of the suite.
 
     .venv/bin/python benchmarks/bench_choice_oracle.py [--setting default] [--episodes 30]
-        [--world hindsight|belief] [--samples 4] [--seed 10000]
+        [--world hindsight|belief] [--samples 4] [--seed 10000] [--base rule|goals|goals:PATH]
+        [--labels PATH.npz]
 
 At every choice of a :class:`~agents.goal_choice.GoalChoiceAgent` made before 90% of
 the landmarks are mapped, each exploring choice (the three frontier weightings) is
-tried on a copy of the env and the agent, the fixed rule choosing after it
-(:class:`~agents.goal_imitation.LoopClosingRule`, loop closures from a pose σ of 0.4 m
-until below 0.2 m), up to the step at which 90% are mapped. The choice that gets there
-soonest is taken (the rule's own on a tie); the rule's loop closures are left alone.
+tried on a copy of the env and the agent, the base policy choosing after it, up to
+the step at which 90% are mapped. The choice that gets there soonest is taken (the
+base's own on a tie); the base's other choices (loop closures, revisits) are left
+alone. The base is ``rule`` (:class:`~agents.goal_imitation.LoopClosingRule` with loop
+closures from a pose σ of 0.4 m until below 0.2 m, the frontier agent's own rule) or a
+goal-choosing policy (``goals``: the shipped one).
 
 * ``hindsight``: each try runs in the copy's own world with the noise to come, so its
   count is exact: what the best choice at every choice would give, which no policy can
@@ -21,7 +24,10 @@ soonest is taken (the rule's own on a tie); the rule's loop closures are left al
 Prints, per agent, the means of steps to 90% mapped, final entropy and collisions per
 100 steps, and the lookahead's paired difference from ``frontier`` (mean ± standard
 error, and the seeds it is ahead on). The episodes are the suite's: ``reset(seed=seed
-+ i)``, the setting's length.
++ i)``, the setting's length. ``--labels`` also saves every choice the lookahead
+weighed, for ``bench_choice_distillation.py``: its features, the steps from it to 90%
+mapped of each exploring choice in each world tried, the base's own choice and the
+episode's seed.
 """
 
 from __future__ import annotations
@@ -31,13 +37,15 @@ import copy
 import dataclasses
 import math
 from collections.abc import Sequence
+from pathlib import Path
+from typing import NamedTuple
 
 import gymnasium as gym
 import numpy as np
 
 from agents.arguments import non_negative_int, positive_int
 from agents.evaluation import run_episode
-from agents.goal_choice import CHOICES, EXPLORE, GoalChoiceAgent
+from agents.goal_choice import CHOICES, EXPLORE, N_FEATURES, GoalChoiceAgent, Policy
 from agents.goal_imitation import LoopClosingRule
 from agents.registry import make_agent, make_env
 from agents.suite import SUITE_SEED, suite_settings
@@ -110,57 +118,126 @@ def steps_to_mapped(
             action = agent.finish_step(rule(agent.features()))
 
 
+class Label(NamedTuple):
+    """One choice the lookahead weighed: its features, the steps from it to 90% mapped
+    of each exploring choice in each world tried ((worlds, len(EXPLORING))), and the
+    base's own choice."""
+
+    features: np.ndarray
+    costs: np.ndarray
+    own: int
+
+
 class Lookahead:
     """The policy of a :class:`GoalChoiceAgent` that tries the exploring choices (see
-    the module); set :attr:`agent` to the agent it drives."""
+    the module) over ``base``'s; set :attr:`agent` to the agent it drives. Every choice
+    it weighs goes to :attr:`labels`."""
 
-    def __init__(self, env: gym.Env, world: str, samples: int, seed: int) -> None:
-        self.env, self.world, self.samples = env, world, samples
+    def __init__(
+        self, env: gym.Env, world: str, samples: int, seed: int, base: Policy = RULE
+    ) -> None:
+        self.env, self.world, self.samples, self.base = env, world, samples, base
         self.rng = np.random.default_rng(seed)  # the belief's drawn worlds
         self.agent: GoalChoiceAgent | None = None
+        self.labels: list[Label] = []
+
+    def reset(self) -> None:
+        reset = getattr(self.base, "reset", None)
+        if callable(reset):
+            reset()
 
     def __call__(self, features: np.ndarray) -> int:
-        own = RULE(features)
+        own = self.base(features)
         need = landmarks_needed(self.env.unwrapped.n_landmarks, MAPPED_SHARE)
         if own not in EXPLORING or self.env.unwrapped.filter.n_landmarks >= need:
             return own
-        costs = np.zeros(len(EXPLORING))
-        for _ in range(self.samples if self.world == "belief" else 1):
+        tries = self.samples if self.world == "belief" else 1
+        costs = np.zeros((tries, len(EXPLORING)))
+        for i in range(tries):
             seed = self.rng.integers(2**63)
             for k, choice in enumerate(EXPLORING):
-                env, agent = copy.deepcopy((self.env, self.agent))
+                # The base's copy keeps its memory as of this choice.
+                env, agent, base = copy.deepcopy((self.env, self.agent, self.base))
                 if self.world == "belief":
                     redraw_unmapped(env, agent, np.random.default_rng(seed))
-                costs[k] += steps_to_mapped(env, agent, choice, RULE, need)
-        best = EXPLORING[int(np.argmin(costs))]
-        return own if costs[EXPLORING.index(own)] == costs.min() else best
+                costs[i, k] = steps_to_mapped(env, agent, choice, base, need)
+        costs -= self.agent._steps
+        self.labels.append(Label(features.copy(), costs, own))
+        mean = costs.mean(axis=0)
+        best = EXPLORING[int(np.argmin(mean))]
+        return own if mean[EXPLORING.index(own)] == mean.min() else best
 
 
-def lookahead_agent(env: gym.Env, world: str, samples: int, seed: int) -> GoalChoiceAgent:
-    policy = Lookahead(env, world, samples, seed)
-    agent = GoalChoiceAgent(env, policy, seed=seed)
+def lookahead_agent(
+    env: gym.Env, world: str, samples: int, seed: int, base: str = "rule"
+) -> GoalChoiceAgent:
+    """The lookahead over ``base`` (``rule``, or a goal-choosing agent spec such as
+    ``goals``) acting on ``env``."""
+    if base == "rule":
+        agent = GoalChoiceAgent(env, RULE, seed=seed)
+    else:
+        agent = make_agent(base, env, seed)
+        if not isinstance(agent, GoalChoiceAgent):
+            raise ValueError(f"--base must be 'rule' or a goal-choosing policy, got {base!r}")
+    policy = Lookahead(env, world, samples, seed, base=agent._policy)
+    agent._policy = policy
     policy.agent = agent
     return agent
 
 
 def compare(
-    setting: str, episodes: int, world: str, samples: int, seed: int
+    setting: str,
+    episodes: int,
+    world: str,
+    samples: int,
+    seed: int,
+    base: str = "rule",
+    labels: dict[int, list[Label]] | None = None,
 ) -> dict[str, list[dict[str, float]]]:
-    """The suite metrics of ``frontier`` and the lookahead on the setting's episodes."""
+    """The suite metrics of ``frontier`` and the lookahead over ``base`` on the
+    setting's episodes; the choices the lookahead weighed go to ``labels`` by seed."""
     (chosen,) = [s for s in suite_settings("default") if s.name == setting]
     seeds = [seed + i for i in range(episodes)]
     out: dict[str, list[dict[str, float]]] = {}
-    for name in ("frontier", f"lookahead ({world})"):
+    name = f"lookahead ({world})" if base == "rule" else f"lookahead ({world}, {base})"
+    for agent_name in ("frontier", name):
         env = make_env(chosen.env_options, chosen.steps)
         try:
-            if name == "frontier":
+            if agent_name == "frontier":
                 agent = make_agent("frontier", env, seeds[0])
             else:
-                agent = lookahead_agent(env, world, samples, seeds[0])
-            out[name] = [suite_metrics(run_episode(env, agent, s)) for s in seeds]
+                agent = lookahead_agent(env, world, samples, seeds[0], base)
+            rows = []
+            for s in seeds:
+                rows.append(suite_metrics(run_episode(env, agent, s)))
+                if agent_name != "frontier" and labels is not None:
+                    labels[s] = agent._policy.labels
+                    agent._policy.labels = []
+            out[agent_name] = rows
         finally:
             env.close()
     return out
+
+
+def save_labels(path: Path, labels: dict[int, list[Label]]) -> int:
+    """``labels`` (by seed) as arrays in an ``.npz`` file: ``features`` (N, N_FEATURES),
+    ``costs`` (N, worlds, choices), ``own`` and ``seed`` (N,: each one's episode), and
+    ``choices``, the exploring choices the costs' last axis is. How many were saved."""
+    rows = [(seed, x) for seed, weighed in labels.items() for x in weighed]
+    if rows:
+        features = np.stack([x.features for _, x in rows]).astype(np.float32)
+        costs = np.stack([x.costs for _, x in rows]).astype(np.float64)
+    else:
+        features, costs = np.zeros((0, N_FEATURES), np.float32), np.zeros((0, 1, len(EXPLORING)))
+    np.savez(
+        path,
+        features=features,
+        costs=costs,
+        own=np.array([x.own for _, x in rows], np.int64),
+        seed=np.array([seed for seed, _ in rows], np.int64),
+        choices=np.array(EXPLORING, np.int64),
+    )
+    return len(rows)
 
 
 def report(results: dict[str, list[dict[str, float]]]) -> str:
@@ -186,9 +263,29 @@ def main(argv: Sequence[str] | None = None) -> None:
     parser.add_argument("--world", choices=("hindsight", "belief"), default="hindsight")
     parser.add_argument("--samples", type=positive_int, default=4)
     parser.add_argument("--seed", type=non_negative_int, default=SUITE_SEED)
+    parser.add_argument("--base", default="rule", help="rule, goals or goals:PATH")
+    parser.add_argument("--labels", type=Path, help="save the weighed choices (.npz)")
     args = parser.parse_args(argv)
-    results = compare(args.setting, args.episodes, args.world, args.samples, args.seed)
+    if not (args.base in ("rule", "goals") or args.base.startswith("goals:")):
+        parser.error(f"argument --base: rule, goals or goals:PATH, got {args.base!r}")
+    if args.labels is not None and not args.labels.parent.is_dir():
+        parser.error(f"argument --labels: no directory {args.labels.parent}")
+    if args.base != "rule":
+        env = make_env()
+        try:
+            lookahead_agent(env, args.world, args.samples, args.seed, args.base)
+        except ValueError as exc:  # a policy file that does not load
+            parser.error(f"argument --base: {exc}")
+        finally:
+            env.close()
+    labels: dict[int, list[Label]] = {}
+    results = compare(
+        args.setting, args.episodes, args.world, args.samples, args.seed, args.base, labels
+    )
     print(report(results))
+    if args.labels is not None:
+        saved = save_labels(args.labels, labels)
+        print(f"{saved} weighed choices saved to {args.labels}")
 
 
 if __name__ == "__main__":

@@ -16,12 +16,15 @@ from agents.goal_choice import GoalChoiceAgent
 from agents.registry import make_env
 from agents.suite_metrics import landmarks_needed, suite_metrics
 from benchmarks.bench_choice_oracle import (
+    EXPLORING,
     MAPPED_SHARE,
     RULE,
+    Label,
     lookahead_agent,
     main,
     redraw_unmapped,
     report,
+    save_labels,
     steps_to_mapped,
 )
 
@@ -107,8 +110,67 @@ def test_the_report_pairs_the_episodes():
     ]
     ahead = [{"steps_to_90": s, "final_entropy": -1.0, "collisions_per_100": 1.0} for s in (7, 19)]
     lines = report({"frontier": frontier, "lookahead (belief)": ahead}).splitlines()
+    assert lines[:2] == [
+        "| agent | steps_to_90 | final_entropy | collisions_per_100 |",
+        "|---|---|---|---|",
+    ]
     assert lines[2] == "| frontier | 15.00 | -1.00 | 0.00 |"
     assert lines[3] == "| lookahead (belief) | 13.00 | -1.00 | 1.00 |"
     # Differences −3 and −1: mean −2, standard error 1; both seeds lower.
     assert lines[4].split(" | ")[1] == "-2.00 ± 1.00 (2 lower)"
     assert lines[4].split(" | ")[3] == "+1.00 ± 0.00 (0 lower) |"
+
+
+def test_a_weighed_choice_costs_the_steps_from_it_in_hindsight():
+    env = small_env()
+    rule_run = suite_metrics(run_episode(env, GoalChoiceAgent(env, RULE, seed=3), 3))
+    agent = lookahead_agent(env, "hindsight", 1, 3)
+    run_episode(env, agent, 3)
+    first = agent._policy.labels[0]
+    env.close()
+    assert first.costs.shape == (1, len(EXPLORING))
+    # The episode's first choice is at its first step; the rule's own choice there,
+    # followed by the rule, is the rule's episode.
+    assert first.costs[0, EXPLORING.index(first.own)] + 1 == rule_run["steps_to_90"]
+
+
+def test_the_command_saves_the_weighed_choices(tmp_path, capsys):
+    path = tmp_path / "labels.npz"
+    main(["--setting", "arena_8m", "--episodes", "2", "--world", "belief", "--samples", "2",
+          "--labels", str(path)])  # fmt: skip
+    saved = int(capsys.readouterr().out.splitlines()[-1].split()[0])
+    with np.load(path) as data:
+        assert saved == len(data["own"]) > 0
+        assert data["features"].shape == (saved, 32)
+        assert data["costs"].shape == (saved, 2, len(EXPLORING))
+        assert (data["costs"] >= 0).all()  # steps after the choice's own
+        assert set(data["own"].tolist()) <= set(EXPLORING)  # the rule explores at 0
+        assert set(data["seed"].tolist()) <= {10_000, 10_001}
+        assert data["choices"].tolist() == list(EXPLORING)
+
+
+def test_no_weighed_choices_save_empty_arrays(tmp_path):
+    path = tmp_path / "none.npz"
+    assert save_labels(path, {}) == 0
+    label = Label(np.zeros(32, np.float32), np.ones((3, len(EXPLORING))), EXPLORING[0])
+    assert save_labels(tmp_path / "one.npz", {7: [label]}) == 1
+    with np.load(path) as empty, np.load(tmp_path / "one.npz") as one:
+        assert empty["features"].shape == (0, 32) and empty["costs"].shape[0] == 0
+        assert one["costs"].shape == (1, 3, len(EXPLORING)) and one["seed"].tolist() == [7]
+
+
+def test_the_shipped_policy_can_be_the_base():
+    env = small_env()
+    agent = lookahead_agent(env, "belief", 1, 4, base="goals")
+    record = run_episode(env, agent, 4)
+    env.close()
+    assert record.landmarks_known[-1] > 0
+    assert agent._policy.labels  # it weighed choices over the policy's own
+
+
+@pytest.mark.parametrize("base", ["frontier", "goals:/no/such/policy.zip"])
+def test_a_base_that_is_not_a_goal_policy_is_a_usage_error(base, capsys):
+    with pytest.raises(SystemExit) as exc:
+        main(["--episodes", "1", "--base", base])
+    assert exc.value.code == 2
+    assert "argument --base" in capsys.readouterr().err

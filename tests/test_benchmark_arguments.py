@@ -18,6 +18,7 @@ BENCHMARKS = Path(__file__).resolve().parents[1] / "benchmarks"
 # One count per benchmark that once crashed, divided by zero or printed inf for it.
 BAD_COUNTS = {
     "bench_agents.py": ["--searches", "0"],
+    "bench_choice_distillation.py": ["--epochs", "0"],
     "bench_choice_oracle.py": ["--samples", "0"],
     "bench_consistency.py": ["--steps", "0"],
     "bench_coverage.py": ["--steps", "-1"],
