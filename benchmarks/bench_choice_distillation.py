@@ -18,8 +18,10 @@ passes). On the held-out choices each fit picks the choice of the lowest predict
 Prints, per chooser, the held-out mean of (its pick's cost − the base's pick's cost),
 steps per choice: negative means the fit would reach 90% mapped sooner than the base,
 as the lookahead itself does. Standard errors treat the episodes as the independent
-units. Beside them: each exploring choice taken at every choice, and the pick of the
-held-out labels themselves (a bound, and optimistic: the least of noisy means).
+units. Beside them: each exploring choice taken at every choice, the pick of the
+held-out labels themselves (a bound, and optimistic: the least of noisy means) and,
+with two worlds or more per choice, the lookahead's own pick made on half of each
+choice's worlds and weighed on the other half (unbiased).
 """
 
 from __future__ import annotations
@@ -99,6 +101,8 @@ def advantages(costs: np.ndarray, own: np.ndarray, choices: np.ndarray) -> np.nd
 def split(labels: dict[str, np.ndarray], test_share: float, seed: int) -> tuple[Split, Split]:
     """Train and held-out sides, the episodes (seeds) drawn at random for held-out."""
     seeds = np.unique(labels["seed"])
+    if len(seeds) == 0:
+        raise ValueError("the label files hold no weighed choices")
     rng = np.random.default_rng(seed)
     held = rng.choice(seeds, size=max(1, round(test_share * len(seeds))), replace=False)
     if len(held) == len(seeds):

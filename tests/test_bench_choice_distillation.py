@@ -93,10 +93,14 @@ def test_the_command_reads_label_files_and_refuses_others(tmp_path, capsys):
     assert "| network, 2 passes |" in out and out.startswith("80 choices of 8 episodes")
     other = tmp_path / "other.npz"
     np.savez(other, features=np.zeros((1, 32)))
+    empty = tmp_path / "empty.npz"
+    labels = synthetic(1, np.random.default_rng(1))
+    np.savez(empty, **{k: v[:0] if k != "choices" else v for k, v in labels.items()})
     for args, message in [
         ([str(other)], "is not a label file"),
         ([str(tmp_path / "missing.npz")], "no such label file"),
         ([str(path), "--test-share", "1"], "must be in (0, 1), got 1"),
+        ([str(empty)], "hold no weighed choices"),
     ]:
         with pytest.raises(SystemExit) as exc:
             main(args)
