@@ -48,7 +48,7 @@ from agents.evaluation import run_episode
 from agents.goal_choice import CHOICES, EXPLORE, N_FEATURES, GoalChoiceAgent, Policy
 from agents.goal_imitation import LoopClosingRule
 from agents.registry import make_agent, make_env
-from agents.suite import SUITE_SEED, suite_settings
+from agents.suite import SUITE_SEED, SuiteSetting, suite_settings
 from agents.suite_metrics import landmarks_needed, suite_metrics
 from slam_env.kernels.geometry import set_world
 
@@ -186,36 +186,30 @@ def lookahead_agent(
 
 
 def compare(
-    setting: str,
-    episodes: int,
-    world: str,
-    samples: int,
-    seed: int,
-    base: str = "rule",
+    setting: SuiteSetting,
+    seeds: Sequence[int],
+    env: gym.Env,
+    lookahead: GoalChoiceAgent,
+    name: str,
     labels: dict[int, list[Label]] | None = None,
 ) -> dict[str, list[dict[str, float]]]:
-    """The suite metrics of ``frontier`` and the lookahead over ``base`` on the
-    setting's episodes; the choices the lookahead weighed go to ``labels`` by seed."""
-    (chosen,) = [s for s in suite_settings("default") if s.name == setting]
-    seeds = [seed + i for i in range(episodes)]
+    """The suite metrics of ``frontier`` (on an env of its own) and of ``lookahead``
+    (a :func:`lookahead_agent` on ``env``) on the setting's episodes; the choices the
+    lookahead weighed go to ``labels`` by seed."""
     out: dict[str, list[dict[str, float]]] = {}
-    name = f"lookahead ({world})" if base == "rule" else f"lookahead ({world}, {base})"
-    for agent_name in ("frontier", name):
-        env = make_env(chosen.env_options, chosen.steps)
-        try:
-            if agent_name == "frontier":
-                agent = make_agent("frontier", env, seeds[0])
-            else:
-                agent = lookahead_agent(env, world, samples, seeds[0], base)
-            rows = []
-            for s in seeds:
-                rows.append(suite_metrics(run_episode(env, agent, s)))
-                if agent_name != "frontier" and labels is not None:
-                    labels[s] = agent._policy.labels
-                    agent._policy.labels = []
-            out[agent_name] = rows
-        finally:
-            env.close()
+    frontier_env = make_env(setting.env_options, setting.steps)
+    try:
+        frontier = make_agent("frontier", frontier_env, seeds[0])
+        out["frontier"] = [suite_metrics(run_episode(frontier_env, frontier, s)) for s in seeds]
+    finally:
+        frontier_env.close()
+    policy = lookahead._policy
+    rows = []
+    for s in seeds:
+        rows.append(suite_metrics(run_episode(env, lookahead, s)))
+        if labels is not None:
+            labels[s], policy.labels = policy.labels, []
+    out[name] = rows
     return out
 
 
@@ -270,18 +264,21 @@ def main(argv: Sequence[str] | None = None) -> None:
         parser.error(f"argument --base: rule, goals or goals:PATH, got {args.base!r}")
     if args.labels is not None and not args.labels.parent.is_dir():
         parser.error(f"argument --labels: no directory {args.labels.parent}")
-    if args.base != "rule":
-        env = make_env()
+    (setting,) = [s for s in suite_settings("default") if s.name == args.setting]
+    env = make_env(setting.env_options, setting.steps)
+    try:
         try:
-            lookahead_agent(env, args.world, args.samples, args.seed, args.base)
+            lookahead = lookahead_agent(env, args.world, args.samples, args.seed, args.base)
         except ValueError as exc:  # a policy file that does not load
             parser.error(f"argument --base: {exc}")
-        finally:
-            env.close()
-    labels: dict[int, list[Label]] = {}
-    results = compare(
-        args.setting, args.episodes, args.world, args.samples, args.seed, args.base, labels
-    )
+        name = f"lookahead ({args.world})"
+        if args.base != "rule":
+            name = f"lookahead ({args.world}, {args.base})"
+        seeds = [args.seed + i for i in range(args.episodes)]
+        labels: dict[int, list[Label]] = {}
+        results = compare(setting, seeds, env, lookahead, name, labels)
+    finally:
+        env.close()
     print(report(results))
     if args.labels is not None:
         saved = save_labels(args.labels, labels)
