@@ -34,7 +34,6 @@ from __future__ import annotations
 
 import argparse
 import copy
-import dataclasses
 import math
 from collections.abc import Sequence
 from pathlib import Path
@@ -50,7 +49,7 @@ from agents.goal_imitation import LoopClosingRule
 from agents.registry import make_agent, make_env
 from agents.suite import SUITE_SEED, SuiteSetting, suite_settings
 from agents.suite_metrics import landmarks_needed, suite_metrics
-from slam_env.kernels.geometry import set_world
+from slam_env.layouts import LANDMARK_POST_RADIUS
 
 MAPPED_SHARE = 0.9
 EXPLORING = tuple(i for i, choice in enumerate(CHOICES) if choice.mode == EXPLORE)
@@ -62,41 +61,43 @@ RULE = LoopClosingRule(close_at=0.4, closed_at=0.2)
 def redraw_unmapped(env: gym.Env, agent: GoalChoiceAgent, rng: np.random.Generator) -> None:
     """Move the landmarks the filter has not mapped to points drawn uniformly over the
     agent's unswept free cells (the world's clearance from walls and obstacles, its
-    spacing between landmarks; the last of 50 tries if none is far enough from the
-    others), keep the robot where it is, and give the env's noise a new generator
-    from ``rng``. Reaches into the env's core: a measurement tool, not an API."""
+    spacing between landmarks, clear of the robot; a landmark with no such point in 50
+    tries stays where it is, and if it then overlaps one drawn before it, all are drawn
+    again, at most 5 times, then none is moved), keep the robot where it is, and give
+    the env's noise a new generator from ``rng``."""
     base = env.unwrapped
-    worlds = base._core.worlds
-    world = worlds.worlds[0]
-    layout = world.layout
+    layout = base.layout
     cfg = base.config.world
     mapped = set(base.filter.belief_views()[2].tolist())
-    memory = agent._memory
-    grid = memory.grid
-    unswept = memory.on_planning_grid(agent._unswept())
+    grid = agent._memory.grid
+    unswept = agent._memory.on_planning_grid(agent._unswept())
     cells = np.argwhere(unswept & (grid.clearance >= cfg.clearance + grid.resolution))
-    positions = np.array(layout.landmark_positions, dtype=np.float64)
-    unmapped = [i for i, lid in enumerate(layout.landmark_ids) if lid not in mapped]
-    if unmapped and len(cells):
-        placed = [positions[i] for i in range(len(positions)) if i not in unmapped]
-        for i in unmapped:
+    robot = np.array(base.world.pose[:2])
+    keep_off = base.config.robot.radius + LANDMARK_POST_RADIUS
+    true = dict(zip(layout.landmark_ids, layout.landmark_positions, strict=True))
+    for _ in range(5):
+        placed = {lid: point for lid, point in true.items() if lid in mapped}
+        moved = {}
+        for lid in true:
+            if lid in mapped or not len(cells):
+                continue
             for _ in range(50):
                 row, col = cells[rng.integers(len(cells))]
                 point = np.array(grid.center(row, col))
                 point += rng.uniform(-0.5, 0.5, 2) * grid.resolution
-                if all(math.dist(point, q) >= cfg.landmark_spacing for q in placed):
+                if math.dist(point, robot) > keep_off and all(
+                    math.dist(point, q) >= cfg.landmark_spacing for q in placed.values()
+                ):
+                    moved[lid] = placed[lid] = tuple(point.tolist())
                     break
-            positions[i] = point
-            placed.append(point)
-        redrawn = dataclasses.replace(layout, landmark_positions=tuple(map(tuple, positions)))
-        pose = world.pose
-        world.relayout(redrawn)
-        world._place(*pose)
-        worlds.landmarks[0] = world.landmark_positions
-        geometry = set_world(worlds.geometry, 0, redrawn, cfg.wall_thickness)
-        if geometry is not worlds.geometry:
-            worlds.geometry, worlds.geometry_fields = geometry, tuple(geometry)
-    base._core.rngs[0] = np.random.default_rng(rng.integers(2**63))
+            else:
+                placed[lid] = true[lid]
+        try:  # one left where it is may overlap one drawn before it: draw again
+            base.move_landmarks(moved)
+            break
+        except ValueError:
+            continue
+    base.np_random = np.random.default_rng(rng.integers(2**63))
 
 
 def steps_to_mapped(

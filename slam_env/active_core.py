@@ -39,6 +39,7 @@ from slam_env.kernels.divergence import diverged
 from slam_env.layouts import Layout
 from slam_env.local_observation import LocalEncoding
 from slam_env.overlay import BeliefOverlay
+from slam_env.random_blocks import RandomBlocks
 from slam_env.raw_core import BatchCore, RawCore
 from slam_env.wrappers import DIVERGENCE_REJECTIONS, PASSTHROUGH_KEYS, REWARD_TERMS
 
@@ -178,6 +179,10 @@ class ActiveCore(BatchCore):
     @property
     def rngs(self) -> list[np.random.Generator | None]:
         return self.raw.rngs
+
+    @property
+    def blocks(self) -> RandomBlocks:
+        return self.raw.blocks
 
     # The kernels' fixed arguments hold views of the coverage grid (rebuilt when it is
     # unpickled): never pickled, rebuilt at the first step.

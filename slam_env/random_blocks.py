@@ -64,6 +64,11 @@ class RandomBlocks:
         rng.random(out=self._blocks[index])
         self._cursor[index] = 0
 
+    def drop(self, index: int) -> None:
+        """Drop what is left of sub-env ``index``'s block: its next step draws a new
+        one from its generator (which has just been replaced)."""
+        self._cursor[index] = self._blocks.shape[1]
+
     @property
     def kernel_args(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """``(blocks, cursor, uniforms, used_up)``: the blocks as

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+from collections.abc import Mapping
 from typing import Any, SupportsFloat
 
 import gymnasium as gym
@@ -10,15 +12,13 @@ from gymnasium import spaces
 from gymnasium.error import ResetNeeded
 
 from slam_env.actions import DISCRETE_PRIMITIVES, parse_action
-from slam_env.layouts import Layout
+from slam_env.layouts import Layout, as_floats, as_int
 from slam_env.world import World
 
 
 def check_reset_options(options: Any, env_name: str) -> None:
     """``TypeError`` unless ``options`` is ``None`` or a mapping, ``ValueError`` unless
     it is empty: the envs take no reset options."""
-    from collections.abc import Mapping
-
     if options is not None and not isinstance(options, Mapping):
         raise TypeError(
             f"{env_name}.reset options must be a dict or None, got {type(options).__name__}"
@@ -148,6 +148,63 @@ class CoreEnv(gym.Env):
     def max_detections(self) -> int:
         """Rows of the detections in the raw observation."""
         return self._core.max_detections
+
+    def move_landmarks(self, positions: Mapping[int, Any]) -> None:
+        """Move landmarks of this episode's world: ``positions`` maps landmark IDs to
+        their new true (x, y), m. The robot, the belief and the rest of the episode
+        stay as they are. This is for what-if worlds: a planner tries its choices on
+        ``copy.deepcopy(env)`` with the landmarks it has not mapped drawn from its
+        belief, and gives the copy noise of its own by setting its ``np_random``.
+
+        The moved world, started where the robot is now, must pass
+        :meth:`~slam_env.layouts.Layout.validate` (landmarks in the arena, clear of
+        obstacles and walls, no two posts overlapping, none overlapping the robot);
+        ``TypeError`` or ``ValueError`` otherwise, and nothing is moved.
+        """
+        world = self.world  # ResetNeeded before the first reset
+        if not isinstance(positions, Mapping):
+            raise TypeError(
+                f"positions must be a mapping of landmark ID to (x, y), "
+                f"got {type(positions).__name__}"
+            )
+        layout = world.layout
+        index = {lid: i for i, lid in enumerate(layout.landmark_ids)}
+        moved = list(layout.landmark_positions)
+        for key, value in positions.items():
+            lid = as_int(key, "a landmark ID of positions")
+            if lid not in index:
+                raise ValueError(
+                    f"positions names landmark ID {lid}, which this world does not have "
+                    f"(its IDs: {sorted(index)})"
+                )
+            moved[index[lid]] = as_floats(value, 2, f"positions[{lid}]")
+        new_layout = dataclasses.replace(layout, landmark_positions=tuple(moved))
+        # Checked as a world that starts where the robot is now.
+        here = dataclasses.replace(new_layout, start_pose=world.pose)
+        try:
+            here.validate(self.config.robot.radius, wall_thickness=self.config.world.wall_thickness)
+        except ValueError as err:
+            raise ValueError(
+                f"cannot move the landmarks there: {err} (the start pose is the robot's now)"
+            ) from None
+        self._core.worlds.move_landmarks(0, new_layout)
+        if self._renderer is not None:
+            self._renderer.set_layout(new_layout)
+
+    @property
+    def np_random(self) -> np.random.Generator:
+        """The env's generator (Gymnasium's, seeded by ``reset(seed=…)``). Setting a
+        new one mid-episode gives the noise of every step from the next one on."""
+        return gym.Env.np_random.fget(self)
+
+    @np_random.setter
+    def np_random(self, value: np.random.Generator) -> None:
+        if not isinstance(value, np.random.Generator):
+            raise TypeError(f"np_random must be a numpy Generator, got {type(value).__name__}")
+        gym.Env.np_random.fset(self, value)
+        if self._started:
+            # The steps draw their noise a block at a time: drop the old generator's.
+            self._core.blocks.drop(0)
 
     def _remember(self, info: dict[str, Any]) -> None:
         """Keep what the picture draws of the path (only when rendering)."""

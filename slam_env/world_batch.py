@@ -80,11 +80,26 @@ class WorldBatch:
         ids = world.landmark_ids
         self.landmark_ids[index] = ids
         self.id_order[index] = np.argsort(ids, kind="stable")
-        geometry = set_world(self.geometry, index, layout, cfg.world.wall_thickness)
+        self._set_geometry(index, layout)
+        return layout
+
+    def move_landmarks(self, index: int, layout: Layout) -> None:
+        """Make ``layout`` sub-env ``index``'s world, the robot where it is: the
+        current world with landmarks moved (their IDs and order unchanged), already
+        valid for this robot with its posts clear of it."""
+        world = self.worlds[index]
+        pose = world.pose
+        world.relayout(layout)
+        world._place(*pose)
+        self.landmarks[index] = world.landmark_positions
+        self._set_geometry(index, layout)
+
+    def _set_geometry(self, index: int, layout: Layout) -> None:
+        """The kernels' static geometry of sub-env ``index`` from ``layout``."""
+        geometry = set_world(self.geometry, index, layout, self.config.world.wall_thickness)
         if geometry is not self.geometry:  # grown: new arrays
             self.geometry = geometry
             self.geometry_fields = tuple(geometry)
-        return layout
 
     def move(self, commands: np.ndarray, active: np.ndarray, collided: np.ndarray) -> np.ndarray:
         """Drive each ``active`` ((B,) bool) robot by its row of ``commands`` ((B, 2)

@@ -89,7 +89,11 @@ def test_a_redrawn_world_moves_only_the_unmapped_landmarks():
         assert unswept[memory.grid.cell_of(*after[i])]
         others = np.delete(after, i, axis=0)
         assert np.hypot(*(others - after[i]).T).min() >= spacing - 1e-9
-    c_env.step(np.zeros(2, np.float32))  # the redrawn world steps
+    # The redrawn world steps, on noise of its own: not the episode's noise to come.
+    for e in (c_env, env):
+        e.step(np.zeros(2, np.float32))
+    noise = [e.unwrapped._core.blocks.uniforms[0] for e in (c_env, env)]
+    assert not np.array_equal(*noise)
     env.close()
 
 
