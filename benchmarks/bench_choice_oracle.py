@@ -3,7 +3,7 @@ hindsight or from the belief, beside ``frontier``, on one setting of the suite.
 
     .venv/bin/python benchmarks/bench_choice_oracle.py [--setting default] [--episodes 30]
         [--world hindsight|belief] [--samples 4] [--seed 10000] [--base rule|goals|goals:PATH]
-        [--labels PATH.npz]
+        [--labels PATH.npz] [--endgame 0]
 
 At every choice of a :class:`~agents.goal_choice.GoalChoiceAgent` made before 90% of
 the landmarks are mapped, each exploring choice (the three frontier weightings) is
@@ -21,6 +21,11 @@ goal-choosing policy (``goals``: the shipped one).
   landmarks not yet mapped redrawn uniformly over the unswept free area and their noise
   drawn afresh: what looking ahead from the belief finds.
 
+With ``--endgame N`` the lookahead also makes the choices after 90% is mapped: it
+tries going on with the revisits, a loop closure and the least-known landmark, each in
+N worlds (drawn as above, or the true one), the base choosing after it, to the
+episode's end, and takes the one that ends with the least belief entropy.
+
 Prints, per agent, the means of steps to 90% mapped, final entropy and collisions per
 100 steps, and the lookahead's paired difference from ``frontier`` (mean ± standard
 error, and the seeds it is ahead on). The episodes are the suite's: ``reset(seed=seed
@@ -35,7 +40,7 @@ from __future__ import annotations
 import argparse
 import copy
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 from typing import NamedTuple
 
@@ -53,6 +58,11 @@ from slam_env.layouts import LANDMARK_POST_RADIUS
 
 MAPPED_SHARE = 0.9
 EXPLORING = tuple(i for i, choice in enumerate(CHOICES) if choice.mode == EXPLORE)
+#: The choices tried once 90% are mapped (``--endgame``): going on with the revisits
+#: under way, a loop closure, the least-known landmark.
+ENDGAME = tuple(
+    i for i, choice in enumerate(CHOICES) if choice.name in ("explore", "localise", "refine")
+)
 METRICS = ("steps_to_90", "final_entropy", "collisions_per_100")
 #: The choices after each try, and the loop closures: the frontier agent's own rule.
 RULE = LoopClosingRule(close_at=0.4, closed_at=0.2)
@@ -100,23 +110,43 @@ def redraw_unmapped(env: gym.Env, agent: GoalChoiceAgent, rng: np.random.Generat
     base.np_random = np.random.default_rng(rng.integers(2**63))
 
 
-def steps_to_mapped(
-    env: gym.Env, agent: GoalChoiceAgent, choice: int, rule: LoopClosingRule, need: int
-) -> int:
-    """The agent's step count at which ``need`` landmarks are mapped, taking ``choice``
-    now and the rule's choices after it (on ``env`` and ``agent`` themselves); an
-    episode that ends first counts its length plus the env's limit."""
-    agent._policy = rule
+def play_on(
+    env: gym.Env, agent: GoalChoiceAgent, choice: int, base: Policy
+) -> Iterator[tuple[bool, dict]]:
+    """Step ``env`` and ``agent`` themselves, taking ``choice`` now and ``base``'s
+    choices after it, to the episode's end: each step's (episode over, info)."""
+    agent._policy = base
     action = agent.finish_step(choice)
     while True:
-        _, _, terminated, truncated, _ = env.step(action)
-        if env.unwrapped.filter.n_landmarks >= need:
-            return agent._steps
-        if terminated or truncated:
-            return agent._steps + env.spec.max_episode_steps
+        _, _, terminated, truncated, info = env.step(action)
+        done = bool(terminated or truncated)
+        yield done, info
+        if done:
+            return
         action = agent.begin_step()
         if action is None:
-            action = agent.finish_step(rule(agent.features()))
+            action = agent.finish_step(base(agent.features()))
+
+
+def steps_to_mapped(
+    env: gym.Env, agent: GoalChoiceAgent, choice: int, base: Policy, need: int
+) -> int:
+    """The agent's step count at which ``need`` landmarks are mapped (:func:`play_on`);
+    an episode that ends first counts its length plus the env's limit."""
+    for done, _ in play_on(env, agent, choice, base):
+        if env.unwrapped.filter.n_landmarks >= need:
+            return agent._steps
+        if done:
+            return agent._steps + env.spec.max_episode_steps
+    raise AssertionError("play_on ends with the episode")
+
+
+def final_entropy(env: gym.Env, agent: GoalChoiceAgent, choice: int, base: Policy) -> float:
+    """The belief entropy (nats) at the episode's end (:func:`play_on`)."""
+    for done, info in play_on(env, agent, choice, base):
+        if done:
+            return float(info["entropy"])
+    raise AssertionError("play_on ends with the episode")
 
 
 class Label(NamedTuple):
@@ -132,12 +162,22 @@ class Label(NamedTuple):
 class Lookahead:
     """The policy of a :class:`GoalChoiceAgent` that tries the exploring choices (see
     the module) over ``base``'s; set :attr:`agent` to the agent it drives. Every choice
-    it weighs goes to :attr:`labels`."""
+    it weighs goes to :attr:`labels`. With ``endgame`` > 0, once 90% are mapped it
+    also tries :data:`ENDGAME` in that many drawn worlds each, to the episode's end,
+    and takes the one that ends with the least belief entropy (the base's own on a
+    tie)."""
 
     def __init__(
-        self, env: gym.Env, world: str, samples: int, seed: int, base: Policy = RULE
+        self,
+        env: gym.Env,
+        world: str,
+        samples: int,
+        seed: int,
+        base: Policy = RULE,
+        endgame: int = 0,
     ) -> None:
         self.env, self.world, self.samples, self.base = env, world, samples, base
+        self.endgame = endgame
         self.rng = np.random.default_rng(seed)  # the belief's drawn worlds
         self.agent: GoalChoiceAgent | None = None
         self.labels: list[Label] = []
@@ -150,37 +190,53 @@ class Lookahead:
     def __call__(self, features: np.ndarray) -> int:
         own = self.base(features)
         need = landmarks_needed(self.env.unwrapped.n_landmarks, MAPPED_SHARE)
-        if own not in EXPLORING or self.env.unwrapped.filter.n_landmarks >= need:
+        mapped = self.env.unwrapped.filter.n_landmarks >= need
+        if mapped and self.endgame:
+            values = self._tried(ENDGAME, self.endgame, final_entropy)
+            return self._least(values.mean(axis=0), ENDGAME, own)
+        if own not in EXPLORING or mapped:
             return own
-        tries = self.samples if self.world == "belief" else 1
-        costs = np.zeros((tries, len(EXPLORING)))
+        costs = self._tried(EXPLORING, self.samples, lambda *game: steps_to_mapped(*game, need))
+        costs -= self.agent._steps
+        self.labels.append(Label(features.copy(), costs, own))
+        return self._least(costs.mean(axis=0), EXPLORING, own)
+
+    def _tried(self, choices: tuple[int, ...], worlds: int, value: Callable) -> np.ndarray:
+        """(tries, len(choices)): ``value(env, agent, choice, base)`` of each choice on
+        copies of the env, the agent and the base (its memory as of this choice), in
+        ``worlds`` drawn worlds (the same ones for each choice), or the true one."""
+        tries = worlds if self.world == "belief" else 1
+        out = np.zeros((tries, len(choices)))
         for i in range(tries):
             seed = self.rng.integers(2**63)
-            for k, choice in enumerate(EXPLORING):
-                # The base's copy keeps its memory as of this choice.
+            for k, choice in enumerate(choices):
                 env, agent, base = copy.deepcopy((self.env, self.agent, self.base))
                 if self.world == "belief":
                     redraw_unmapped(env, agent, np.random.default_rng(seed))
-                costs[i, k] = steps_to_mapped(env, agent, choice, base, need)
-        costs -= self.agent._steps
-        self.labels.append(Label(features.copy(), costs, own))
-        mean = costs.mean(axis=0)
-        best = EXPLORING[int(np.argmin(mean))]
-        return own if mean[EXPLORING.index(own)] == mean.min() else best
+                out[i, k] = value(env, agent, choice, base)
+        return out
+
+    @staticmethod
+    def _least(means: np.ndarray, choices: tuple[int, ...], own: int) -> int:
+        """The choice of least mean, ``own`` on a tie."""
+        if own in choices and means[choices.index(own)] == means.min():
+            return own
+        return choices[int(np.argmin(means))]
 
 
 def lookahead_agent(
-    env: gym.Env, world: str, samples: int, seed: int, base: str = "rule"
+    env: gym.Env, world: str, samples: int, seed: int, base: str = "rule", endgame: int = 0
 ) -> GoalChoiceAgent:
     """The lookahead over ``base`` (``rule``, or a goal-choosing agent spec such as
-    ``goals``) acting on ``env``."""
+    ``goals``) acting on ``env``, with ``endgame`` worlds per choice once 90% are
+    mapped (:class:`Lookahead`)."""
     if base == "rule":
         agent = GoalChoiceAgent(env, RULE, seed=seed)
     else:
         agent = make_agent(base, env, seed)
         if not isinstance(agent, GoalChoiceAgent):
             raise ValueError(f"--base must be 'rule' or a goal-choosing policy, got {base!r}")
-    policy = Lookahead(env, world, samples, seed, base=agent._policy)
+    policy = Lookahead(env, world, samples, seed, base=agent._policy, endgame=endgame)
     agent._policy = policy
     policy.agent = agent
     return agent
@@ -260,6 +316,9 @@ def main(argv: Sequence[str] | None = None) -> None:
     parser.add_argument("--seed", type=non_negative_int, default=SUITE_SEED)
     parser.add_argument("--base", default="rule", help="rule, goals or goals:PATH")
     parser.add_argument("--labels", type=Path, help="save the weighed choices (.npz)")
+    parser.add_argument(
+        "--endgame", type=non_negative_int, default=0, help="worlds per choice once 90%% are mapped"
+    )
     args = parser.parse_args(argv)
     if not (args.base in ("rule", "goals") or args.base.startswith("goals:")):
         parser.error(f"argument --base: rule, goals or goals:PATH, got {args.base!r}")
@@ -269,12 +328,14 @@ def main(argv: Sequence[str] | None = None) -> None:
     env = make_env(setting.env_options, setting.steps)
     try:
         try:
-            lookahead = lookahead_agent(env, args.world, args.samples, args.seed, args.base)
+            lookahead = lookahead_agent(
+                env, args.world, args.samples, args.seed, args.base, args.endgame
+            )
         except ValueError as exc:  # a policy file that does not load
             parser.error(f"argument --base: {exc}")
-        name = f"lookahead ({args.world})"
-        if args.base != "rule":
-            name = f"lookahead ({args.world}, {args.base})"
+        name = f"lookahead ({args.world}"
+        name += "" if args.base == "rule" else f", {args.base}"
+        name += f", endgame {args.endgame})" if args.endgame else ")"
         seeds = [args.seed + i for i in range(args.episodes)]
         labels: dict[int, list[Label]] = {}
         results = compare(setting, seeds, env, lookahead, name, labels)

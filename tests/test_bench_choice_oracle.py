@@ -1,7 +1,8 @@
 """benchmarks/bench_choice_oracle.py, the command behind "what the choices can give"
 in docs/goal_policy.md: a try in hindsight predicts its episode exactly, so the hindsight
 lookahead is never behind the rule it tries against; a redrawn world moves only the
-landmarks not yet mapped, into the unswept free area, and keeps the robot."""
+landmarks not yet mapped, into the unswept free area, and keeps the robot; the endgame
+takes the choice whose tries end least uncertain."""
 
 from __future__ import annotations
 
@@ -15,13 +16,18 @@ from agents.evaluation import run_episode
 from agents.goal_choice import GoalChoiceAgent
 from agents.registry import make_env
 from agents.suite_metrics import landmarks_needed, suite_metrics
+from benchmarks import bench_choice_oracle
 from benchmarks.bench_choice_oracle import (
+    ENDGAME,
     EXPLORING,
     MAPPED_SHARE,
     RULE,
     Label,
+    Lookahead,
+    final_entropy,
     lookahead_agent,
     main,
+    play_on,
     redraw_unmapped,
     report,
     save_labels,
@@ -178,3 +184,62 @@ def test_a_base_that_is_not_a_goal_policy_is_a_usage_error(base, capsys):
         main(["--episodes", "1", "--base", base])
     assert exc.value.code == 2
     assert "argument --base" in capsys.readouterr().err
+
+
+def at_the_endgame(seed):
+    """An env and a rule-driven agent at their first choice once 90% are mapped."""
+    env = small_env()
+    env.reset(seed=seed)
+    agent = GoalChoiceAgent(env, RULE, seed=seed)
+    agent.reset()
+    need = landmarks_needed(env.unwrapped.n_landmarks, MAPPED_SHARE)
+    while True:
+        action = agent.begin_step()
+        if action is None:
+            if env.unwrapped.filter.n_landmarks >= need:
+                return env, agent
+            action = agent.finish_step(RULE(agent.features()))
+        env.step(action)
+
+
+@pytest.mark.parametrize("choice", ENDGAME)
+def test_an_endgame_try_in_hindsight_ends_as_the_episode_that_follows(choice):
+    env, agent = at_the_endgame(3)
+    tried = final_entropy(*copy.deepcopy((env, agent)), choice, RULE)
+    steps = [info for _, info in play_on(env, agent, choice, RULE)]
+    assert steps[-1]["entropy"] == tried
+    assert agent._steps == env.spec.max_episode_steps
+    env.close()
+
+
+def test_the_endgame_takes_the_choice_that_ends_with_the_least_entropy(monkeypatch):
+    env, agent = at_the_endgame(4)
+    policy = Lookahead(env, "belief", 1, 0, endgame=2)
+    policy.agent = agent
+    features = agent.features()
+    own = RULE(features)
+    values = dict(zip(ENDGAME, (-1.0, -5.0, -3.0), strict=True))
+    tried = []
+
+    def fake(env, agent, choice, base):
+        tried.append(choice)
+        return values[choice]
+
+    monkeypatch.setattr(bench_choice_oracle, "final_entropy", fake)
+    assert policy(features) == ENDGAME[1]
+    assert tried == list(ENDGAME) * 2  # each choice in each of the 2 worlds
+    values = dict.fromkeys(ENDGAME, -2.0)
+    assert policy(features) == own  # a tie keeps the base's own
+    policy.endgame = 0
+    tried.clear()
+    assert policy(features) == own and not tried  # off: the base chooses
+    env.close()
+
+
+def test_the_command_names_the_endgame_and_refuses_a_negative_one(capsys):
+    main(["--setting", "arena_8m", "--episodes", "1", "--world", "belief", "--samples", "1",
+          "--endgame", "1"])  # fmt: skip
+    assert "| lookahead (belief, endgame 1) |" in capsys.readouterr().out
+    with pytest.raises(SystemExit) as exc:
+        main(["--endgame", "-1"])
+    assert exc.value.code == 2
