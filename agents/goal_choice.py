@@ -108,8 +108,14 @@ class GoalChoiceAgent(FrontierAgent):
 
     @property
     def hold_goals(self) -> bool:
-        """Whether a choice holds while its goal stands (see the class)."""
+        """Whether a choice holds while its goal stands (see the class); it may be set
+        mid-episode, and holds from the next decision."""
         return self._hold_goals
+
+    @hold_goals.setter
+    def hold_goals(self, value: bool) -> None:
+        check_hold_goals(value)
+        self._hold_goals = value
 
     def _new_episode(self) -> None:
         super()._new_episode()

@@ -24,15 +24,16 @@ goal-choosing policy (``goals``: the shipped one).
 With ``--endgame N`` the lookahead also makes the choices after 90% is mapped: it
 tries going on with the revisits, a loop closure and the least-known landmark, each in
 N worlds (drawn as above, or the true one), the base choosing after it, to the
-episode's end, and takes the one that ends with the least belief entropy.
+episode's end, and takes the one that ends with the least belief entropy; from then
+on the choices hold while their goals stand (``hold_goals``).
 
-Prints, per agent, the means of steps to 90% mapped, final entropy and collisions per
-100 steps, and the lookahead's paired difference from ``frontier`` (mean ± standard
-error, and the seeds it is ahead on). The episodes are the suite's: ``reset(seed=seed
-+ i)``, the setting's length. ``--labels`` also saves every choice the lookahead
-weighed, for ``bench_choice_distillation.py``: its features, the steps from it to 90%
-mapped of each exploring choice in each world tried, the base's own choice and the
-episode's seed.
+Prints, per agent, the means of steps to 90% mapped, final entropy, collisions per
+100 steps and the share of the landmarks mapped at the end, and the lookahead's paired
+difference from ``frontier`` (mean ± standard error, and the seeds it is lower on).
+The episodes are the suite's: ``reset(seed=seed + i)``, the setting's length.
+``--labels`` also saves every choice the lookahead weighed, for
+``bench_choice_distillation.py``: its features, the steps from it to 90% mapped of each
+exploring choice in each world tried, the base's own choice and the episode's seed.
 """
 
 from __future__ import annotations
@@ -63,7 +64,7 @@ EXPLORING = tuple(i for i, choice in enumerate(CHOICES) if choice.mode == EXPLOR
 ENDGAME = tuple(
     i for i, choice in enumerate(CHOICES) if choice.name in ("explore", "localise", "refine")
 )
-METRICS = ("steps_to_90", "final_entropy", "collisions_per_100")
+METRICS = ("steps_to_90", "final_entropy", "collisions_per_100", "mapped_share")
 #: The choices after each try, and the loop closures: the frontier agent's own rule.
 RULE = LoopClosingRule(close_at=0.4, closed_at=0.2)
 
@@ -161,11 +162,12 @@ class Label(NamedTuple):
 
 class Lookahead:
     """The policy of a :class:`GoalChoiceAgent` that tries the exploring choices (see
-    the module) over ``base``'s; set :attr:`agent` to the agent it drives. Every choice
+    the module) over ``base``'s; :meth:`attach` it to the agent it drives. Every choice
     it weighs goes to :attr:`labels`. With ``endgame`` > 0, once 90% are mapped it
     also tries :data:`ENDGAME` in that many drawn worlds each, to the episode's end,
     and takes the one that ends with the least belief entropy (the base's own on a
-    tie)."""
+    tie); from then on the agent's choices hold while their goals stand
+    (``hold_goals``), in its tries as in the episode."""
 
     def __init__(
         self,
@@ -180,18 +182,28 @@ class Lookahead:
         self.endgame = endgame
         self.rng = np.random.default_rng(seed)  # the belief's drawn worlds
         self.agent: GoalChoiceAgent | None = None
+        self._holds = False  # the agent's own hold_goals, restored at each episode
         self.labels: list[Label] = []
+
+    def attach(self, agent: GoalChoiceAgent) -> None:
+        """Drive ``agent`` (whose policy this is)."""
+        self.agent, self._holds = agent, agent.hold_goals
 
     def reset(self) -> None:
         reset = getattr(self.base, "reset", None)
         if callable(reset):
             reset()
+        if self.agent is not None:
+            self.agent.hold_goals = self._holds  # as the agent was made
 
     def __call__(self, features: np.ndarray) -> int:
         own = self.base(features)
         need = landmarks_needed(self.env.unwrapped.n_landmarks, MAPPED_SHARE)
         mapped = self.env.unwrapped.filter.n_landmarks >= need
         if mapped and self.endgame:
+            # Each try assumes its choice is followed: without holding, the next
+            # decision switched it, and the robot stood among its goals.
+            self.agent.hold_goals = True
             values = self._tried(ENDGAME, self.endgame, final_entropy)
             return self._least(values.mean(axis=0), ENDGAME, own)
         if own not in EXPLORING or mapped:
@@ -238,7 +250,7 @@ def lookahead_agent(
             raise ValueError(f"--base must be 'rule' or a goal-choosing policy, got {base!r}")
     policy = Lookahead(env, world, samples, seed, base=agent._policy, endgame=endgame)
     agent._policy = policy
-    policy.agent = agent
+    policy.attach(agent)
     return agent
 
 

@@ -116,19 +116,24 @@ def test_the_command_prints_both_agents_and_their_difference(capsys):
 
 def test_the_report_pairs_the_episodes():
     frontier = [
-        {"steps_to_90": s, "final_entropy": -1.0, "collisions_per_100": 0.0} for s in (10, 20)
+        {"steps_to_90": s, "final_entropy": -1.0, "collisions_per_100": 0.0, "mapped_share": 1.0}
+        for s in (10, 20)
     ]
-    ahead = [{"steps_to_90": s, "final_entropy": -1.0, "collisions_per_100": 1.0} for s in (7, 19)]
+    ahead = [
+        {"steps_to_90": s, "final_entropy": -1.0, "collisions_per_100": 1.0, "mapped_share": m}
+        for s, m in ((7, 1.0), (19, 0.9))
+    ]
     lines = report({"frontier": frontier, "lookahead (belief)": ahead}).splitlines()
     assert lines[:2] == [
-        "| agent | steps_to_90 | final_entropy | collisions_per_100 |",
-        "|---|---|---|---|",
+        "| agent | steps_to_90 | final_entropy | collisions_per_100 | mapped_share |",
+        "|---|---|---|---|---|",
     ]
-    assert lines[2] == "| frontier | 15.00 | -1.00 | 0.00 |"
-    assert lines[3] == "| lookahead (belief) | 13.00 | -1.00 | 1.00 |"
+    assert lines[2] == "| frontier | 15.00 | -1.00 | 0.00 | 1.00 |"
+    assert lines[3] == "| lookahead (belief) | 13.00 | -1.00 | 1.00 | 0.95 |"
     # Differences −3 and −1: mean −2, standard error 1; both seeds lower.
     assert lines[4].split(" | ")[1] == "-2.00 ± 1.00 (2 lower)"
-    assert lines[4].split(" | ")[3] == "+1.00 ± 0.00 (0 lower) |"
+    assert lines[4].split(" | ")[3] == "+1.00 ± 0.00 (0 lower)"
+    assert lines[4].split(" | ")[4] == "-0.05 ± 0.05 (1 lower) |"
 
 
 def test_a_weighed_choice_costs_the_steps_from_it_in_hindsight():
@@ -215,7 +220,7 @@ def test_an_endgame_try_in_hindsight_ends_as_the_episode_that_follows(choice):
 def test_the_endgame_takes_the_choice_that_ends_with_the_least_entropy(monkeypatch):
     env, agent = at_the_endgame(4)
     policy = Lookahead(env, "belief", 1, 0, endgame=2)
-    policy.agent = agent
+    policy.attach(agent)
     features = agent.features()
     own = RULE(features)
     values = dict(zip(ENDGAME, (-1.0, -5.0, -3.0), strict=True))
@@ -228,11 +233,14 @@ def test_the_endgame_takes_the_choice_that_ends_with_the_least_entropy(monkeypat
     monkeypatch.setattr(bench_choice_oracle, "final_entropy", fake)
     assert policy(features) == ENDGAME[1]
     assert tried == list(ENDGAME) * 2  # each choice in each of the 2 worlds
+    assert agent.hold_goals  # the endgame's choices hold
     values = dict.fromkeys(ENDGAME, -2.0)
     assert policy(features) == own  # a tie keeps the base's own
     policy.endgame = 0
     tried.clear()
     assert policy(features) == own and not tried  # off: the base chooses
+    policy.reset()
+    assert not agent.hold_goals  # a new episode: the agent's own again
     env.close()
 
 

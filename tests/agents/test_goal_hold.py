@@ -107,6 +107,16 @@ def test_a_held_revisit_whose_landmark_is_done_meanwhile_asks_again():
     assert agent.target_landmark not in (None, target)
 
 
+def test_holding_can_start_mid_episode():
+    agent, _ = planned(0, hold=False)
+    agent.hold_goals = True
+    assert agent.hold_goals and replan_due(agent) is not None  # the goal stands: held
+    for bad in (1, None):
+        with pytest.raises(TypeError, match="hold_goals must be a bool"):
+            agent.hold_goals = bad
+    assert agent.hold_goals is True
+
+
 def test_hold_goals_must_be_a_bool():
     env = make_env({}, 20)
     for bad in (1, "yes", None):
