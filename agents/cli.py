@@ -32,6 +32,7 @@ import yaml
 
 import slam_env
 from agents.arguments import non_negative_int, positive_int
+from agents.registry import AGENT_NAMES
 from agents.train_config import VECTORIZATIONS
 
 PROG = "slam-env"
@@ -134,8 +135,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--agents",
         required=True,
-        help="comma-separated agent specs: random, frontier, infogain, ppo, ppo:PATH, "
-        "rllib:PATH, goals, goals:PATH",
+        help=f"comma-separated agent specs: {', '.join(AGENT_NAMES)}",
     )
     p.add_argument(
         "--episodes",
@@ -156,6 +156,10 @@ def build_parser() -> argparse.ArgumentParser:
         "--suite",
         help="run a fixed suite of world settings × seeds instead (default, smoke; see "
         "agents/suite.py); --max-steps and --env-option do not apply",
+    )
+    p.add_argument(
+        "--settings",
+        help="with --suite: only these of its settings, comma-separated (e.g. default,rooms)",
     )
 
     p = sub.add_parser(
@@ -277,6 +281,8 @@ def _run_evaluate(args: argparse.Namespace) -> int:
     check_writable_dir(args.out)
     if args.suite is not None:
         return _run_suite(args)
+    if args.settings is not None:
+        raise ValueError("--settings chooses settings of a suite: give --suite too")
     given = {"episodes": args.episodes, "seed": args.seed}  # None: evaluate's defaults
     result = evaluate(
         args.agents,
@@ -292,9 +298,10 @@ def _run_evaluate(args: argparse.Namespace) -> int:
 
 
 def _run_suite(args: argparse.Namespace) -> int:
-    from agents.suite import run_suite, suite_settings
+    from agents.suite import chosen_settings, run_suite
 
-    suite_settings(args.suite)  # an unknown name, before anything runs
+    names = None if args.settings is None else [n.strip() for n in args.settings.split(",")]
+    chosen_settings(args.suite, names)  # an unknown name, before anything runs
     if args.env_option or args.max_steps is not None:
         raise ValueError("--suite fixes its settings: drop --env-option and --max-steps")
     result = run_suite(
@@ -303,6 +310,7 @@ def _run_suite(args: argparse.Namespace) -> int:
         args.out,
         episodes=args.episodes,
         seed=args.seed,
+        settings=names,
         progress=not args.no_progress,
     )
     for name, path in result.files.items():

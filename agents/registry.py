@@ -12,6 +12,8 @@ An agent spec is a short string, as the command line takes it:
 | ``rllib:PATH`` | an RLlib checkpoint saved by ``slam-env train --engine rllib`` (a folder) |
 | ``goals``    | the shipped goal-choosing policy, ``agents/policies/goal_explore.zip`` |
 | ``goals:PATH`` | a goal-choosing policy (:mod:`agents.goal_choice`), ``decisions: goals`` |
+| ``lookahead`` | ``goals``, looking ahead in worlds drawn from the belief (agents.lookahead) |
+| ``lookahead:PATH`` | the lookahead around the goal-choosing policy at PATH |
 
 Heuristic agents are imported only when asked for, so that one agent's import cost
 (or absence) never affects another.
@@ -43,7 +45,17 @@ _HEURISTICS: dict[str, tuple[str, str]] = {
     "infogain": ("agents.infogain", "InfoGainAgent"),
 }
 
-AGENT_NAMES = ("random", *_HEURISTICS, "ppo", "ppo:PATH", "rllib:PATH", "goals", "goals:PATH")
+AGENT_NAMES = (
+    "random",
+    *_HEURISTICS,
+    "ppo",
+    "ppo:PATH",
+    "rllib:PATH",
+    "goals",
+    "goals:PATH",
+    "lookahead",
+    "lookahead:PATH",
+)
 
 
 def make_env(
@@ -78,8 +90,9 @@ def agent_label(spec: str) -> str:
         return f"ppo:{Path(spec[4:]).stem}"
     if spec.startswith("rllib:"):
         return f"rllib:{Path(spec[6:]).name}"
-    if spec.startswith("goals:"):
-        return f"goals:{Path(spec[6:]).stem}"
+    for kind in ("goals", "lookahead"):
+        if spec.startswith(f"{kind}:"):
+            return f"{kind}:{Path(spec[len(kind) + 1 :]).stem}"
     return spec
 
 
@@ -141,13 +154,27 @@ def make_agent(spec: str, env: gym.Env, seed: int | None = None) -> Agent:
         if not path:
             raise ValueError("agent spec 'rllib:' needs a path, e.g. 'rllib:runs/rllib/model'")
         return load_rllib_agent(path, env)
-    if spec == "goals" or spec.startswith("goals:"):
-        from agents.goal_training import load_goal_agent
-
-        if spec == "goals":
-            return load_goal_agent(SHIPPED_GOAL_POLICY, env, seed=seed)
-        path = spec[6:].strip()
-        if not path:
-            raise ValueError("agent spec 'goals:' needs a path, e.g. 'goals:runs/goals/model.zip'")
-        return load_goal_agent(path, env, seed=seed)
+    for kind in ("goals", "lookahead"):
+        if spec == kind:
+            return _goal_agent(kind, SHIPPED_GOAL_POLICY, env, seed)
+        if spec.startswith(f"{kind}:"):
+            path = spec[len(kind) + 1 :].strip()
+            if not path:
+                raise ValueError(
+                    f"agent spec '{kind}:' needs a path, e.g. '{kind}:runs/goals/model.zip'"
+                )
+            return _goal_agent(kind, path, env, seed)
     raise ValueError(f"unknown agent {spec!r}; choose from {', '.join(AGENT_NAMES)}")
+
+
+def _goal_agent(kind: str, path: str | Path, env: gym.Env, seed: int | None) -> Agent:
+    """The goal-choosing policy at ``path``, with a lookahead around it for
+    ``lookahead`` (:func:`agents.lookahead.with_lookahead`)."""
+    from agents.goal_training import load_goal_agent
+
+    agent = load_goal_agent(path, env, seed=seed)
+    if kind == "lookahead":
+        from agents.lookahead import with_lookahead
+
+        agent = with_lookahead(agent, env, seed=seed)
+    return agent

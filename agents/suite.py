@@ -24,7 +24,8 @@ The ``default`` suite (3 seeds per setting, seeds 10000–10002, never used in t
 | sensor_360    | ``fov=2π``                                   |   500 |
 
 ``smoke`` is two small settings × one seed of 30 steps, for tests. ``--episodes N``
-(``run_suite(episodes=N)``) runs N seeds per setting instead, ``--seed S`` from S.
+(``run_suite(episodes=N)``) runs N seeds per setting instead, ``--seed S`` from S, and
+``--settings a,b`` only those settings (to split a long suite between processes).
 
 Files written into ``out_dir``: ``suite.csv`` (one row per setting and agent: each
 metric's mean over the seeds and, for the steps-to metrics, the share of episodes
@@ -113,6 +114,26 @@ SUITES: dict[str, Callable[[], list[SuiteSetting]]] = {
 }
 
 
+def chosen_settings(suite: str, names: Sequence[str] | None) -> list[SuiteSetting]:
+    """The settings of ``suite`` named in ``names`` (all when None), in the suite's
+    order; ``ValueError`` for a name the suite does not have, or none at all."""
+    settings = suite_settings(suite)
+    if names is None:
+        return settings
+    if isinstance(names, str):
+        raise TypeError("settings must be a sequence of setting names, not a str")
+    known = [s.name for s in settings]
+    unknown = [n for n in names if n not in known]
+    if unknown:
+        raise ValueError(
+            f"suite {suite!r} has no setting {', '.join(map(repr, unknown))}; "
+            f"its settings: {', '.join(known)}"
+        )
+    if not names:
+        raise ValueError(f"no settings given; suite {suite!r} has {', '.join(known)}")
+    return [s for s in settings if s.name in names]
+
+
 def suite_settings(name: str) -> list[SuiteSetting]:
     """The settings of suite ``name`` (``ValueError`` naming the suites otherwise)."""
     if name not in SUITES:
@@ -169,6 +190,7 @@ def run_suite(
     *,
     episodes: int | None = None,
     seed: int | None = None,
+    settings: Sequence[str] | None = None,
     progress: bool = True,
     verbose: bool = True,
 ) -> SuiteResult:
@@ -176,10 +198,12 @@ def run_suite(
     ``reset(seed=seed + i)`` for every agent; None: :data:`SUITE_SEED`), write the files
     of the module docstring into ``out_dir`` and return them with the tables.
     ``episodes``: per setting, instead of the suite's own count (3 seeds tell agents
-    apart only where they differ by more than their scatter between worlds)."""
+    apart only where they differ by more than their scatter between worlds).
+    ``settings``: only these of the suite's settings (by name, run in the suite's order),
+    to split a long suite between processes."""
     specs = parse_agent_specs(agent_specs) if isinstance(agent_specs, str) else list(agent_specs)
     parse_agent_specs(",".join(specs))
-    settings = suite_settings(suite)
+    settings = chosen_settings(suite, settings)
     if episodes is not None:
         check_count("episodes", episodes, 1)
         settings = [dataclasses.replace(s, episodes=episodes) for s in settings]

@@ -2,8 +2,9 @@
 
     .venv/bin/python docs/make_pictures.py [--out docs]
 
-* ``demo.gif``: the demo's movie (``slam-env demo``: frontier, seed 0, the default
-  world) over its first 200 steps, every 8th step;
+* ``demo.gif``: the demo's movie (``slam-env demo``: its default agent, seed 0, the
+  default world) in an episode of 200 steps, every 8th step (a ``lookahead`` agent
+  looks ahead to its episode's end, so this is not the first 200 steps of the next);
 * ``final_map.png``: the demo's final map, after the whole 500-step episode;
 * ``consistency.png``: the pose NEES in its χ² band and the map RMSE over time of
   ``slam-env evaluate --agents random,frontier,ppo --episodes 10 --seed 0``.
@@ -31,7 +32,7 @@ def main(argv: list[str] | None = None) -> None:
     out.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory() as tmp:
         short = demo(
-            "frontier",
+            None,  # the demo's own agent
             seed=0,
             out_dir=Path(tmp) / "short",
             max_steps=GIF_STEPS,
@@ -39,7 +40,7 @@ def main(argv: list[str] | None = None) -> None:
             verbose=False,
         )
         shutil.copy(short.files["gif"], out / "demo.gif")
-        full = demo("frontier", seed=0, out_dir=Path(tmp) / "full", gif=False, verbose=False)
+        full = demo(None, seed=0, out_dir=Path(tmp) / "full", gif=False, verbose=False)
         shutil.copy(full.files["map_png"], out / "final_map.png")
         result = evaluate(
             ["random", "frontier", "ppo"],

@@ -149,16 +149,17 @@ class CoreEnv(gym.Env):
         """Rows of the detections in the raw observation."""
         return self._core.max_detections
 
-    def move_landmarks(self, positions: Mapping[int, Any]) -> None:
+    def move_landmarks(self, positions: Mapping[int, Any], robot_pose: Any = None) -> None:
         """Move landmarks of this episode's world: ``positions`` maps landmark IDs to
-        their new true (x, y), m. The robot, the belief and the rest of the episode
-        stay as they are. This is for what-if worlds: a planner tries its choices on
-        ``copy.deepcopy(env)`` with the landmarks it has not mapped drawn from its
-        belief, and gives the copy noise of its own by setting its ``np_random``.
+        their new true (x, y), m; with ``robot_pose`` the robot too, to that true
+        (x, y, θ) (m, rad), at rest. The belief and the rest of the episode stay as
+        they are. This is for what-if worlds: a planner tries its choices on
+        ``copy.deepcopy(env)`` with the robot and the landmarks drawn from its belief,
+        and gives the copy noise of its own by setting its ``np_random``.
 
-        The moved world, started where the robot is now, must pass
-        :meth:`~slam_env.layouts.Layout.validate` (landmarks in the arena, clear of
-        obstacles and walls, no two posts overlapping, none overlapping the robot);
+        The moved world, started where the robot is now (or at ``robot_pose``), must
+        pass :meth:`~slam_env.layouts.Layout.validate` (landmarks in the arena, clear
+        of obstacles and walls, no two posts overlapping, the robot clear of them all);
         ``TypeError`` or ``ValueError`` otherwise, and nothing is moved.
         """
         world = self.world  # ResetNeeded before the first reset
@@ -179,15 +180,17 @@ class CoreEnv(gym.Env):
                 )
             moved[index[lid]] = as_floats(value, 2, f"positions[{lid}]")
         new_layout = dataclasses.replace(layout, landmark_positions=tuple(moved))
-        # Checked as a world that starts where the robot is now.
-        here = dataclasses.replace(new_layout, start_pose=world.pose)
+        pose = world.pose if robot_pose is None else as_floats(robot_pose, 3, "robot_pose")
+        # Checked as a world that starts where the robot is (to be).
+        here = dataclasses.replace(new_layout, start_pose=pose)
+        start = "the robot's now" if robot_pose is None else "robot_pose"
         try:
             here.validate(self.config.robot.radius, wall_thickness=self.config.world.wall_thickness)
         except ValueError as err:
             raise ValueError(
-                f"cannot move the landmarks there: {err} (the start pose is the robot's now)"
+                f"cannot move the landmarks there: {err} (the start pose is {start})"
             ) from None
-        self._core.worlds.move_landmarks(0, new_layout)
+        self._core.worlds.move_landmarks(0, new_layout, pose)
         if self._renderer is not None:
             self._renderer.set_layout(new_layout)
 

@@ -83,12 +83,14 @@ class WorldBatch:
         self._set_geometry(index, layout)
         return layout
 
-    def move_landmarks(self, index: int, layout: Layout) -> None:
-        """Make ``layout`` sub-env ``index``'s world, the robot where it is: the
-        current world with landmarks moved (their IDs and order unchanged), already
-        valid for this robot with its posts clear of it."""
+    def move_landmarks(
+        self, index: int, layout: Layout, pose: tuple[float, float, float] | None = None
+    ) -> None:
+        """Make ``layout`` sub-env ``index``'s world, the robot at ``pose`` (where it
+        is when None): the current world with landmarks moved (their IDs and order
+        unchanged), already valid for this robot at that pose."""
         world = self.worlds[index]
-        pose = world.pose
+        pose = world.pose if pose is None else pose
         world.relayout(layout)
         world._place(*pose)
         self.landmarks[index] = world.landmark_positions

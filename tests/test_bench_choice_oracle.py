@@ -1,12 +1,9 @@
 """benchmarks/bench_choice_oracle.py, the command behind "what the choices can give"
-in docs/goal_policy.md: a try in hindsight predicts its episode exactly, so the hindsight
-lookahead is never behind the rule it tries against; a redrawn world moves only the
-landmarks not yet mapped, into the unswept free area, and keeps the robot; the endgame
-takes the choice whose tries end least uncertain."""
+in docs/goal_policy.md: its report, the choices it weighs and saves, its bases (the
+lookahead itself is tests/agents/test_lookahead.py's)."""
 
 from __future__ import annotations
 
-import copy
 import math
 
 import numpy as np
@@ -14,93 +11,16 @@ import pytest
 
 from agents.evaluation import run_episode
 from agents.goal_choice import GoalChoiceAgent
+from agents.lookahead import EXPLORING, Label
 from agents.registry import make_env
-from agents.suite_metrics import landmarks_needed, suite_metrics
-from benchmarks import bench_choice_oracle
-from benchmarks.bench_choice_oracle import (
-    ENDGAME,
-    EXPLORING,
-    MAPPED_SHARE,
-    RULE,
-    Label,
-    Lookahead,
-    final_entropy,
-    lookahead_agent,
-    main,
-    play_on,
-    redraw_unmapped,
-    report,
-    save_labels,
-    steps_to_mapped,
-)
+from agents.suite_metrics import suite_metrics
+from benchmarks.bench_choice_oracle import RULE, lookahead_agent, main, report, save_labels
 
 SMALL = {"width": 8.0, "height": 8.0, "n_landmarks": 10, "n_obstacles": 2}
 
 
 def small_env():
     return make_env(SMALL, 250)
-
-
-@pytest.mark.parametrize("seed", [3, 4])
-def test_a_try_in_hindsight_is_the_episode_that_follows(seed):
-    env = small_env()
-    rule_run = suite_metrics(run_episode(env, GoalChoiceAgent(env, RULE, seed=seed), seed))
-    env.reset(seed=seed)
-    agent = GoalChoiceAgent(env, RULE, seed=seed)
-    agent.reset()
-    assert agent.begin_step() is None  # the episode's first step is a choice
-    need = landmarks_needed(env.unwrapped.n_landmarks, MAPPED_SHARE)
-    tried = steps_to_mapped(*copy.deepcopy((env, agent)), RULE(agent.features()), RULE, need)
-    assert tried == rule_run["steps_to_90"]
-    env.close()
-
-
-@pytest.mark.parametrize("seed", [3, 4])
-def test_the_hindsight_lookahead_is_never_behind_its_rule(seed):
-    env = small_env()
-    rule_run = suite_metrics(run_episode(env, GoalChoiceAgent(env, RULE, seed=seed), seed))
-    look = suite_metrics(run_episode(env, lookahead_agent(env, "hindsight", 1, seed), seed))
-    env.close()
-    assert look["steps_to_90"] <= rule_run["steps_to_90"]
-
-
-def test_a_redrawn_world_moves_only_the_unmapped_landmarks():
-    env = small_env()
-    env.reset(seed=5)
-    agent = GoalChoiceAgent(env, RULE, seed=5)
-    for step in range(40):  # map a few landmarks first
-        env.step(agent.predict(None, episode_start=step == 0)[0])
-    base = env.unwrapped
-    mapped = set(base.filter.belief_views()[2].tolist())
-    assert 0 < len(mapped) < base.n_landmarks
-    before = np.array(base.layout.landmark_positions)
-    pose = base.world.pose
-    copies = [copy.deepcopy((env, agent)) for _ in range(2)]
-    for c_env, c_agent in copies:
-        redraw_unmapped(c_env, c_agent, np.random.default_rng(7))
-    (c_env, c_agent), (d_env, _) = copies
-    world = c_env.unwrapped.world
-    after = np.array(world.layout.landmark_positions)
-    np.testing.assert_array_equal(after, np.array(d_env.unwrapped.layout.landmark_positions))
-    np.testing.assert_array_equal(c_env.unwrapped._core.worlds.landmarks[0], after)
-    assert world.pose == pose
-    memory = c_agent._memory
-    unswept = memory.on_planning_grid(c_agent._unswept())
-    spacing = base.config.world.landmark_spacing
-    for i, lid in enumerate(base.layout.landmark_ids):
-        if lid in mapped:
-            np.testing.assert_array_equal(after[i], before[i])
-            continue
-        assert not np.array_equal(after[i], before[i])
-        assert unswept[memory.grid.cell_of(*after[i])]
-        others = np.delete(after, i, axis=0)
-        assert np.hypot(*(others - after[i]).T).min() >= spacing - 1e-9
-    # The redrawn world steps, on noise of its own: not the episode's noise to come.
-    for e in (c_env, env):
-        e.step(np.zeros(2, np.float32))
-    noise = [e.unwrapped._core.blocks.uniforms[0] for e in (c_env, env)]
-    assert not np.array_equal(*noise)
-    env.close()
 
 
 def test_the_command_prints_both_agents_and_their_difference(capsys):
@@ -189,59 +109,6 @@ def test_a_base_that_is_not_a_goal_policy_is_a_usage_error(base, capsys):
         main(["--episodes", "1", "--base", base])
     assert exc.value.code == 2
     assert "argument --base" in capsys.readouterr().err
-
-
-def at_the_endgame(seed):
-    """An env and a rule-driven agent at their first choice once 90% are mapped."""
-    env = small_env()
-    env.reset(seed=seed)
-    agent = GoalChoiceAgent(env, RULE, seed=seed)
-    agent.reset()
-    need = landmarks_needed(env.unwrapped.n_landmarks, MAPPED_SHARE)
-    while True:
-        action = agent.begin_step()
-        if action is None:
-            if env.unwrapped.filter.n_landmarks >= need:
-                return env, agent
-            action = agent.finish_step(RULE(agent.features()))
-        env.step(action)
-
-
-@pytest.mark.parametrize("choice", ENDGAME)
-def test_an_endgame_try_in_hindsight_ends_as_the_episode_that_follows(choice):
-    env, agent = at_the_endgame(3)
-    tried = final_entropy(*copy.deepcopy((env, agent)), choice, RULE)
-    steps = [info for _, info in play_on(env, agent, choice, RULE)]
-    assert steps[-1]["entropy"] == tried
-    assert agent._steps == env.spec.max_episode_steps
-    env.close()
-
-
-def test_the_endgame_takes_the_choice_that_ends_with_the_least_entropy(monkeypatch):
-    env, agent = at_the_endgame(4)
-    policy = Lookahead(env, "belief", 1, 0, endgame=2)
-    policy.attach(agent)
-    features = agent.features()
-    own = RULE(features)
-    values = dict(zip(ENDGAME, (-1.0, -5.0, -3.0), strict=True))
-    tried = []
-
-    def fake(env, agent, choice, base):
-        tried.append(choice)
-        return values[choice]
-
-    monkeypatch.setattr(bench_choice_oracle, "final_entropy", fake)
-    assert policy(features) == ENDGAME[1]
-    assert tried == list(ENDGAME) * 2  # each choice in each of the 2 worlds
-    assert agent.hold_goals  # the endgame's choices hold
-    values = dict.fromkeys(ENDGAME, -2.0)
-    assert policy(features) == own  # a tie keeps the base's own
-    policy.endgame = 0
-    tried.clear()
-    assert policy(features) == own and not tried  # off: the base chooses
-    policy.reset()
-    assert not agent.hold_goals  # a new episode: the agent's own again
-    env.close()
 
 
 def test_the_command_names_the_endgame_and_refuses_a_negative_one(capsys):

@@ -126,6 +126,70 @@ def test_a_landmark_into_an_obstacle_another_post_or_the_robot_is_refused():
     assert b != a
 
 
+@pytest.mark.parametrize("env_id", [ENV_ID, "slam_env/ActiveSLAM-v0"])
+def test_moving_the_robot_where_it_is_changes_nothing(env_id):
+    env = started(env_id)
+    twin = copy.deepcopy(env)
+    env.unwrapped.move_landmarks({}, robot_pose=env.unwrapped.world.pose)
+    assert rollout(env, 60) == rollout(twin, 60)
+
+
+def test_a_moved_robot_drives_and_sees_from_its_new_pose_and_the_belief_stays():
+    env = started("slam_env/ActiveSLAM-v0", preset="open")
+    base = env.unwrapped
+    lid = farthest_landmark(env)
+    lx, ly = base.layout.landmark_positions[list(base.layout.landmark_ids).index(lid)]
+    x, y, _ = base.world.pose
+    heading = math.atan2(ly - y, lx - x)  # 1.5 m short of it, facing it
+    d = math.dist((x, y), (lx, ly)) - 1.5
+    pose = (x + d * math.cos(heading), y + d * math.sin(heading), heading + 2 * math.pi)
+    mean, cov = base.filter.mean.copy(), base.filter.cov.copy()
+    base.move_landmarks({}, robot_pose=pose)
+    assert np.allclose(base.world.pose, (*pose[:2], heading))  # the heading wrapped
+    assert np.array_equal(base.filter.mean, mean) and np.array_equal(base.filter.cov, cov)
+    *_, info = env.step(np.zeros(2, dtype=np.float32))
+    assert np.array_equal(info["odometry_true"], np.zeros(3))  # no jump in the odometry
+    assert np.allclose(info["pose"], base.world.pose) and info["pose_error"] > d / 2
+    assert lid in base.filter.belief_views()[2].tolist()  # seen from there
+
+
+@pytest.mark.parametrize(
+    ("robot_pose", "error", "match"),
+    [
+        ((1.0, 1.0), ValueError, "3 numbers"),
+        ("abc", TypeError, "robot_pose"),
+        ((math.nan, 1.0, 0.0), ValueError, "start_pose is not finite"),
+        ((1e300, 1.0, 0.0), ValueError, "start pose is robot_pose"),
+        ((-3.0, 1.0, 0.0), ValueError, "start pose is robot_pose"),
+    ],
+)
+def test_bad_robot_poses_are_refused_and_nothing_moves(robot_pose, error, match):
+    env = started()
+    twin = copy.deepcopy(env)
+    lid = farthest_landmark(env)
+    with pytest.raises(error, match=match):
+        env.unwrapped.move_landmarks({lid: point_ahead(env, 1.0)}, robot_pose=robot_pose)
+    assert rollout(env, 40) == rollout(twin, 40)
+
+
+def test_a_robot_into_an_obstacle_or_a_post_is_refused_and_one_move_checks_both():
+    env = started(preset="cluttered")
+    twin = copy.deepcopy(env)
+    base = env.unwrapped
+    layout = base.layout
+    centre = (*np.mean(layout.obstacles[0], axis=0), 0.0)
+    post = (*layout.landmark_positions[0], 0.0)
+    for where, match in [(centre, "obstacle"), (post, "post")]:
+        with pytest.raises(ValueError, match=match):
+            base.move_landmarks({}, robot_pose=where)
+    assert rollout(env, 40) == rollout(twin, 40)
+    # The landmark leaves as the robot comes: valid together, not one by one.
+    lid = int(layout.landmark_ids[0])
+    here = base.world.pose
+    base.move_landmarks({lid: here[:2]}, robot_pose=post)
+    assert np.allclose(base.world.pose[:2], post[:2])
+
+
 def test_moving_landmarks_needs_a_reset_first():
     env = gym.make(ENV_ID)
     with pytest.raises(ResetNeeded):

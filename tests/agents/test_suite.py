@@ -9,7 +9,7 @@ import pytest
 
 from agents.cli import main
 from agents.evaluation import EpisodeRecord
-from agents.suite import SUITES, suite_settings
+from agents.suite import SUITES, chosen_settings, suite_settings
 from agents.suite_metrics import steps_to_share, suite_metrics
 
 
@@ -145,6 +145,37 @@ def test_cli_suite_takes_more_episodes_and_other_seeds(tmp_path):
     for setting in SUITES["smoke"]():
         seeds = [e["seed"] for e in results["episodes"] if e["setting"] == setting.name]
         assert seeds == [7, 8], setting.name
+
+
+def test_cli_suite_runs_only_the_settings_it_is_given(tmp_path):
+    out = tmp_path / "suite"
+    assert main(["evaluate", "--agents", "random", "--suite", "smoke", "--settings", " rooms",
+                 "--out", str(out), "--no-progress"]) == 0  # fmt: skip
+    results = json.loads((out / "results.json").read_text())
+    assert [s["name"] for s in results["settings"]] == ["rooms"]
+    assert {e["setting"] for e in results["episodes"]} == {"rooms"}
+    both = chosen_settings("smoke", ["rooms", "default"])
+    assert [s.name for s in both] == ["default", "rooms"]  # the suite's order
+    assert chosen_settings("smoke", None) == SUITES["smoke"]()
+
+
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [
+        (["--suite", "smoke", "--settings", "default,nope"], "has no setting 'nope'"),
+        (["--suite", "smoke", "--settings", ""], "has no setting ''"),
+        (["--settings", "default"], "give --suite too"),
+    ],
+)
+def test_cli_suite_refuses_settings_it_does_not_have(tmp_path, capsys, argv, message):
+    with pytest.raises(SystemExit) as exc:
+        main(["evaluate", "--agents", "random", "--out", str(tmp_path / "x"), *argv])
+    assert exc.value.code == 2 and message in capsys.readouterr().err
+    assert not (tmp_path / "x" / "suite.csv").exists()
+    with pytest.raises(ValueError, match="no settings given"):
+        chosen_settings("smoke", [])
+    with pytest.raises(TypeError, match="not a str"):
+        chosen_settings("smoke", "rooms")
 
 
 @pytest.mark.parametrize(
