@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from slam_env.kernels import inline_kernel, kernel
+from slam_env.kernels.base.compiling import inline_kernel, kernel
 
 
 @inline_kernel

@@ -53,7 +53,7 @@ For the variants that associate, ``correct`` is the share of the detections give
 the right landmark (or correctly starting one, or clutter left out), and ``wrong``,
 ``missed``, ``dup`` the counts over all runs of wrong associations, missed ones and
 duplicated landmarks, judged by ActiveSLAM-v0's own rules
-(:mod:`slam_env.kernels.association_score`); their map RMSE pairs each filter landmark
+(:mod:`slam_env.kernels.ekf.association_score`); their map RMSE pairs each filter landmark
 with the true landmark that started it.
 """
 
@@ -79,7 +79,7 @@ from agents.path_control import ControllerParams, PathFollower
 from slam_env.config import make_config
 from slam_env.ekf import EKFSLAM, LINEARIZATIONS, UpdateResult
 from slam_env.env import unpack_detections
-from slam_env.kernels.association_score import SCORE_NAMES, score_association
+from slam_env.kernels.ekf.association_score import SCORE_NAMES, score_association
 from slam_env.layouts import LANDMARK_POST_RADIUS
 from slam_env.metrics import map_rmse, nees, nees_band, pose_error, share_in_nees_band
 from slam_env.wrappers import DEFAULT_GATE
@@ -314,7 +314,7 @@ def score(
     result: Any, true_ids: np.ndarray, n_before: int, slot_truth: np.ndarray, episode: np.ndarray
 ) -> None:
     """Score one update of an associating variant against the truth with the env's
-    own rules (:func:`slam_env.kernels.association_score.score_association`): the
+    own rules (:func:`slam_env.kernels.ekf.association_score.score_association`): the
     counts go to ``episode`` (1, 4), the truth of each landmark it started to
     ``slot_truth`` (1, M)."""
     k = len(true_ids)

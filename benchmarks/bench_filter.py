@@ -9,7 +9,7 @@ and the compile cost of the kernels.
 One *step* is one prediction and one update with 5 observations of known landmarks
 (range-bearing, odometry motion), with N landmarks in the state. The same steps run
 
-* on ``EKFSLAM`` of this tree (the compiled kernels of ``slam_env.kernels.ekf``);
+* on ``EKFSLAM`` of this tree (the compiled kernels of ``slam_env.kernels.ekf.filter``);
 * on ``EKFSLAM`` of ``--baseline``, extracted with ``git archive`` into a temporary
   directory and run in a child process with ``PYTHONPATH`` pointing there (the child
   answers over a pipe, so its rounds take turns with ours: a slow spell of the shared

@@ -1,4 +1,4 @@
-"""Static-geometry queries: the compiled kernels of slam_env.kernels.raycast against
+"""Static-geometry queries: the compiled kernels of slam_env.kernels.world.raycast against
 pymunk's public ``Space.segment_query_first``, which they reproduce bit for bit.
 
     .venv/bin/python benchmarks/bench_geometry.py [--queries 4000] [--repeats 5]
@@ -23,10 +23,11 @@ import pymunk
 
 from agents.arguments import positive_int
 from slam_env.config import RobotConfig, WorldConfig
-from slam_env.kernels.geometry import empty_geometry, set_world
-from slam_env.kernels.raycast import lines_of_sight, ray_fractions
+from slam_env.kernels.world.raycast import lines_of_sight, ray_fractions
+from slam_env.kernels.world.static_geometry import empty_geometry
 from slam_env.layout_generators import preset_layout, random_layout
 from slam_env.layouts import Layout
+from slam_env.static_shapes import set_world
 from slam_env.world import _ALL, _MOTION_FILTER, CAT_ROBOT, World
 
 

@@ -5,7 +5,7 @@ Unknowns: every pose ``x_1 … x_T`` and every landmark seen, stacked as
 ``v = [x_1, …, x_T, m_0, …, m_(L−1)]`` (``3T + 2L``). ``x_0`` is the filter's prior,
 the true start pose with zero covariance, so it is held fixed (it also fixes the
 gauge). The cost is ``½‖r(v)‖²`` with the residuals whitened by the noise models the
-filter uses (:mod:`slam_env.kernels.models`):
+filter uses (:mod:`slam_env.kernels.base.models`):
 
 * a *motion factor* per step t, between ``x_(t−1)`` and ``x_t``: the pose change
   expressed in the frame of ``x_(t−1)`` minus the change the control predicts,
@@ -44,7 +44,7 @@ import scipy.sparse.linalg
 
 from slam_env.ekf.models import MEASUREMENT_MODELS, MOTION_MODELS
 from slam_env.geometry import wrap_angle
-from slam_env.kernels import models as km
+from slam_env.kernels.base import models as km
 
 __all__ = [
     "MOTION_FLOOR",
@@ -61,7 +61,7 @@ __all__ = [
 # the model has no noise (the sideways direction of a turn on the spot, a stop) the
 # factor would be a hard constraint. 1e-8 is a 0.1 mm (0.1 mrad) standard deviation,
 # far below a moving step's noise (the env's odometry reading also drops sideways
-# motions under 1 mm, see slam_env.kernels.odometry.MIN_ODOMETRY_TRANSLATION).
+# motions under 1 mm, see slam_env.kernels.stream.odometry.MIN_ODOMETRY_TRANSLATION).
 MOTION_FLOOR = 1e-8
 # LSMR's atol/btol inside each trust-region step.
 LSMR_TOLERANCE = 1e-14

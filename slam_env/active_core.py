@@ -25,9 +25,8 @@ from slam_env.config import EnvConfig
 from slam_env.coverage import CoverageGrid
 from slam_env.ekf import EKFSLAM
 from slam_env.ekf.batch import FilterBatch
-from slam_env.kernels.active_step import belief_outputs, filter_step, step_reward
-from slam_env.kernels.association_score import SCORE_NAMES
-from slam_env.kernels.diagnostics import (
+from slam_env.kernels.belief.active_step import belief_outputs, filter_step, step_reward
+from slam_env.kernels.belief.diagnostics import (
     DIAGNOSTICS,
     HEADING_ERROR,
     MAP_RMSE,
@@ -35,7 +34,8 @@ from slam_env.kernels.diagnostics import (
     POSE_NEES,
     POSE_STD,
 )
-from slam_env.kernels.divergence import diverged
+from slam_env.kernels.belief.divergence import diverged
+from slam_env.kernels.ekf.association_score import SCORE_NAMES
 from slam_env.layouts import Layout
 from slam_env.local_observation import LocalEncoding
 from slam_env.overlay import BeliefOverlay

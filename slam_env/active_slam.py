@@ -72,7 +72,7 @@ class ActiveSLAMEnv(CoreEnv):
     Where the filter associates, ``association`` (this step's ``correct``, ``wrong`` and
     ``missed`` associations, and the map's ``duplicated`` landmarks) and
     ``association_episode`` (the same, summed over the episode), judged against the
-    truth (:mod:`slam_env.kernels.association_score`). A numerical breakdown of the
+    truth (:mod:`slam_env.kernels.ekf.association_score`). A numerical breakdown of the
     filter is reported as ``diverged``, never raised out of ``step``. ``info`` never
     holds NaN: a metric that is undefined is absent, so ``map_rmse`` appears with the
     first landmark in the belief (read it with ``info.get``). Absent rather than a

@@ -8,8 +8,8 @@ Two encodings, both slotted by landmark ID (slot i is always landmark i):
   :class:`EgocentricEncoding` for the layout).
 
 Both clip to their (finite) bounds; the wrapper reports in ``info`` when it had to.
-Both are computed by kernels over B worlds (:mod:`slam_env.kernels.egocentric`,
-:mod:`slam_env.kernels.full_belief`); ``encode`` is the case of one belief.
+Both are computed by kernels over B worlds (:mod:`slam_env.kernels.belief.egocentric`,
+:mod:`slam_env.kernels.belief.full_belief`); ``encode`` is the case of one belief.
 """
 
 from __future__ import annotations
@@ -21,9 +21,9 @@ from dataclasses import dataclass
 import numpy as np
 from gymnasium import spaces
 
-from slam_env.kernels.belief_state import SINGLE, BeliefBatch
-from slam_env.kernels.egocentric import EgocentricParams, encode_egocentric
-from slam_env.kernels.full_belief import FullBelief, encode_full
+from slam_env.kernels.belief.belief_state import SINGLE, BeliefBatch
+from slam_env.kernels.belief.egocentric import EgocentricParams, encode_egocentric
+from slam_env.kernels.belief.full_belief import FullBelief, encode_full
 
 # Scales that turn standard deviations into features in [0, 1): tanh(σ / scale).
 POSITION_STD_SCALE = 1.0  # m

@@ -1,5 +1,5 @@
 """The belief entropy over all landmark slots: the number the information-gain reward
-pays on, for one filter or B worlds at once (:mod:`slam_env.kernels.entropy`)."""
+pays on, for one filter or B worlds at once (:mod:`slam_env.kernels.belief.entropy`)."""
 
 from __future__ import annotations
 
@@ -8,8 +8,8 @@ import math
 import numpy as np
 
 from slam_env import metrics
-from slam_env.kernels.belief_state import SINGLE
-from slam_env.kernels.entropy import belief_entropy, slots_entropy
+from slam_env.kernels.belief.belief_state import SINGLE
+from slam_env.kernels.belief.entropy import belief_entropy, slots_entropy
 
 # Covariance floor (m², rad²) of the entropy: uncertainty below 1 cm carries no
 # information worth paying for, and it keeps the entropy finite for an exactly

@@ -192,8 +192,8 @@ def memory_parts(
         "coverage": 0,
     }
     if belief is not None:
-        from slam_env.kernels.association import association_workspace_sizes
-        from slam_env.kernels.ekf import update_workspace_size
+        from slam_env.kernels.ekf.association import association_workspace_sizes
+        from slam_env.kernels.ekf.filter import update_workspace_size
 
         dim = 3 + 2 * world.n_landmark_slots
         parts["belief"] = BELIEF_DENSE_COPIES[belief] * 8 * dim * dim
@@ -315,7 +315,7 @@ def check_budget(
 
 def _check_work(config: EnvConfig) -> int:
     """The work of a step: robot moves and scan beams. Returns the moves per step."""
-    from slam_env.kernels.motion import MAX_MOVE_FRACTION
+    from slam_env.kernels.world.motion import MAX_MOVE_FRACTION
 
     robot = config.robot
     # World.step's count: max(physics_substeps, ⌈|v|·dt / (MAX_MOVE_FRACTION·radius)⌉).

@@ -17,9 +17,9 @@ import numpy as np
 
 from slam_env.config import SensorConfig
 from slam_env.coverage_classes import class_counts_shape, offset_classes
-from slam_env.kernels import coverage as kernels
-from slam_env.kernels.belief_state import SINGLE, filter_belief
-from slam_env.kernels.coverage import CoverageTables, coverage_step
+from slam_env.kernels.belief import coverage as kernels
+from slam_env.kernels.belief.belief_state import SINGLE, filter_belief
+from slam_env.kernels.belief.coverage import CoverageTables, coverage_step
 
 TWO_PI = 2.0 * math.pi
 # m, the side of a coverage cell (the wrapper's default).
@@ -51,7 +51,7 @@ class CoverageGrid:
 
     Footprints and region maps are tabulated per heading bin once (:attr:`tables`,
     shared by any number of worlds); a step is one call to the coverage kernels
-    (:mod:`slam_env.kernels.coverage`) on this grid as a batch of one. They keep each
+    (:mod:`slam_env.kernels.belief.coverage`) on this grid as a batch of one. They keep each
     world's cells counted by class around the robot's cell, so that a step counts
     afresh only when that cell changes (:attr:`incremental`; a grid whose classes would
     not give the same features bit for bit, :mod:`slam_env.coverage_classes`, scans
@@ -313,14 +313,14 @@ class CoverageGrid:
     def kernel_args(self) -> tuple[Any, ...]:
         """The :class:`CoverageTables` fields, then ``(swept, n_swept, held,
         class_counts, new_cells, features, counts)``: the grid as
-        :func:`slam_env.kernels.active_step.belief_outputs` takes it (``features`` what
+        :func:`slam_env.kernels.belief.active_step.belief_outputs` takes it (``features`` what
         :meth:`step_all` returns, ``counts`` scratch)."""
         return (*self._state, self.new_cells, self._out, self._counts)
 
     @property
     def _state(self) -> tuple[Any, ...]:
         """The :class:`CoverageTables` fields and the worlds' state, as
-        :func:`~slam_env.kernels.coverage.coverage_step` takes them."""
+        :func:`~slam_env.kernels.belief.coverage.coverage_step` takes them."""
         return (*self.tables, self._flat, self._n_swept, self._held, self._class_counts)
 
     def _step(self, poses: np.ndarray, sweep: bool, active: np.ndarray | None = None) -> np.ndarray:

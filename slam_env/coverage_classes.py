@@ -9,7 +9,7 @@ integers, ``((f − h·F/heading_bins + F/(2·sectors)) mod F) // (F/sectors)``
 truth: each offset's bin is the one (of the bin its bearing rounds down to and the two
 beside it) that reproduces ``codes`` for every heading bin, and a grid where some
 offset has none, or whose F is too large, gets no classes: its features come from a
-scan of every cell (:mod:`slam_env.kernels.coverage`).
+scan of every cell (:mod:`slam_env.kernels.belief.coverage`).
 """
 
 from __future__ import annotations

@@ -1,5 +1,5 @@
 """The compiled motion of B robots of one size: the buffers of
-:func:`slam_env.kernels.motion.drive` and its call, shared by a
+:func:`slam_env.kernels.world.motion.drive` and its call, shared by a
 :class:`~slam_env.world.World` (a batch of one) and a
 :class:`~slam_env.world_batch.WorldBatch`."""
 
@@ -8,8 +8,8 @@ from __future__ import annotations
 import numpy as np
 
 from slam_env.budget import MAX_MOVES_PER_STEP
-from slam_env.kernels.geometry import StaticGeometry
-from slam_env.kernels.motion import drive
+from slam_env.kernels.world.motion import drive
+from slam_env.kernels.world.static_geometry import StaticGeometry
 
 _TREE = StaticGeometry._fields.index("tree")
 
@@ -21,7 +21,7 @@ class Drive:
     buffer for callers without their own); the robots the kernel flags are listed for
     the caller to settle with clearance queries along ``moves[b, :counts[b]]`` from
     ``reaches[b]`` (see
-    :func:`~slam_env.kernels.motion.drive`). The moves buffer starts at ``substeps`` rows
+    :func:`~slam_env.kernels.world.motion.drive`). The moves buffer starts at ``substeps`` rows
     and grows for fast commands up to :data:`~slam_env.budget.MAX_MOVES_PER_STEP` (or
     ``substeps``, if more); a command that needs more is refused.
     """

@@ -6,8 +6,9 @@ import math
 
 import numpy as np
 
-from slam_env.kernels import angles, odometry
-from slam_env.kernels.odometry import MIN_ODOMETRY_TRANSLATION
+from slam_env.kernels.base import angles
+from slam_env.kernels.stream import odometry
+from slam_env.kernels.stream.odometry import MIN_ODOMETRY_TRANSLATION
 
 TWO_PI = 2.0 * math.pi
 
@@ -55,7 +56,7 @@ def odometry_from_poses(
     pose0, pose1, min_translation: float = MIN_ODOMETRY_TRANSLATION
 ) -> tuple[float, float, float]:
     """Decompose the motion pose0 → pose1 into (δrot1, δtr, δrot2) (seed 000); see
-    :func:`slam_env.kernels.odometry.odometry_from_poses`."""
+    :func:`slam_env.kernels.stream.odometry.odometry_from_poses`."""
     x0, y0, th0 = (float(v) for v in pose0[:3])
     x1, y1, th1 = (float(v) for v in pose1[:3])
     return odometry.odometry_from_poses(x0, y0, th0, x1, y1, th1, float(min_translation))

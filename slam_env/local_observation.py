@@ -19,8 +19,13 @@ from gymnasium import spaces
 
 from slam_env.belief import HEADING_STD_SCALE, POSITION_STD_SCALE, BeliefGeometry
 from slam_env.coverage import CoverageGrid
-from slam_env.kernels.belief_state import BeliefBatch
-from slam_env.kernels.local_map import MAP_CHANNELS, LocalParams, encode_local, mark_scan_hits
+from slam_env.kernels.belief.belief_state import BeliefBatch
+from slam_env.kernels.belief.local_map import (
+    MAP_CHANNELS,
+    LocalParams,
+    encode_local,
+    mark_scan_hits,
+)
 
 # The K nearest known landmarks in the observation.
 NEAREST_LANDMARKS = 8

@@ -11,8 +11,8 @@ import numpy as np
 
 from slam_env.ekf import chi2_ppf
 from slam_env.geometry import wrap_angle
-from slam_env.kernels.diagnostics import pose_nees as kernel_pose_nees
-from slam_env.kernels.entropy import gaussian_entropy as kernel_gaussian_entropy
+from slam_env.kernels.belief.diagnostics import pose_nees as kernel_pose_nees
+from slam_env.kernels.belief.entropy import gaussian_entropy as kernel_gaussian_entropy
 
 
 def pose_error(estimate, truth) -> np.ndarray:
@@ -40,7 +40,7 @@ def nees(error, cov) -> float:
 def pose_nees_from_error(error: list[float], cov: list[list[float]]) -> float:
     """The pose NEES of an error (dx, dy, dθ) given as Python floats, its 3×3
     covariance as nested lists (symmetric: only the upper triangle is read); the
-    per-step diagnostics' equation (:func:`slam_env.kernels.diagnostics.pose_nees`)."""
+    per-step diagnostics' equation (:func:`slam_env.kernels.belief.diagnostics.pose_nees`)."""
     (a, b, c), (_, d, f), (_, _, g) = cov
     return kernel_pose_nees(error[0], error[1], error[2], a, b, c, d, f, g)
 

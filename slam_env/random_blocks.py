@@ -7,37 +7,10 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from slam_env.kernels import kernel
-
 # A block holds about this many uniforms (and at most MAX_BLOCK_STEPS steps' worth):
 # one numpy call per block instead of one per step.
 BLOCK_UNIFORMS = 4096
 MAX_BLOCK_STEPS = 16
-
-
-@kernel
-def used_up_rows(
-    blocks: np.ndarray, cursor: np.ndarray, active: np.ndarray, used_up: np.ndarray
-) -> int:
-    """List in ``used_up`` the active sub-envs whose block is used up; return how many."""
-    n = 0
-    for b in range(blocks.shape[0]):
-        if active[b] and cursor[b] >= blocks.shape[1]:
-            used_up[n] = b
-            n += 1
-    return n
-
-
-@kernel
-def take_rows(blocks: np.ndarray, cursor: np.ndarray, active: np.ndarray, out: np.ndarray) -> None:
-    """Copy each active sub-env's next row of its block into ``out`` and advance its
-    cursor (:func:`used_up_rows` lists none of them)."""
-    for b in range(blocks.shape[0]):
-        if active[b]:
-            row = cursor[b]
-            for k in range(out.shape[1]):  # a loop: numba's slice copy may allocate
-                out[b, k] = blocks[b, row, k]
-            cursor[b] = row + 1
 
 
 class RandomBlocks:
@@ -72,7 +45,7 @@ class RandomBlocks:
     @property
     def kernel_args(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """``(blocks, cursor, uniforms, used_up)``: the blocks as
-        :func:`~slam_env.kernels.raw_step.raw_step` takes them; it writes the
+        :func:`~slam_env.kernels.stream.raw_step.raw_step` takes them; it writes the
         step's uniforms ((B, width); stale rows for inactive sub-envs) into
         ``uniforms``, or lists the sub-envs whose block is used up in ``used_up``."""
         return (self._blocks, self._cursor, self._uniforms, self._used_up)

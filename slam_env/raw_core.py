@@ -14,17 +14,17 @@ import numpy as np
 from gymnasium import spaces
 
 from slam_env.config import EnvConfig
-from slam_env.kernels.faults import (
+from slam_env.kernels.base.pinning import pin
+from slam_env.kernels.stream.faults import (
     CLUTTER_UNIFORMS,
     FAULT_UNIFORMS,
     KIDNAP_UNIFORM,
     FaultParams,
 )
-from slam_env.kernels.observe import RawOutputs, RawParams
-from slam_env.kernels.odometry import odometry_uniforms
-from slam_env.kernels.pinning import pin
-from slam_env.kernels.raw_step import raw_step
-from slam_env.kernels.sensing import SensorParams, scan_uniforms, sensing_scratch
+from slam_env.kernels.stream.observe import RawOutputs, RawParams
+from slam_env.kernels.stream.odometry import odometry_uniforms
+from slam_env.kernels.stream.raw_step import raw_step
+from slam_env.kernels.stream.sensing import SensorParams, scan_uniforms, sensing_scratch
 from slam_env.layouts import Layout
 from slam_env.random_blocks import RandomBlocks
 from slam_env.world_batch import WorldBatch
@@ -301,7 +301,7 @@ class RawCore(BatchCore):
     def _raw_step(self, read: bool, sense: bool) -> None:
         """If ``read``, the uniforms of the touched sub-envs and the odometry readings
         (and their faults) of the stepping ones; if ``sense``, the scans and
-        observations: one call of :func:`~slam_env.kernels.raw_step.raw_step`, and
+        observations: one call of :func:`~slam_env.kernels.stream.raw_step.raw_step`, and
         another after refilling used-up blocks."""
         worlds = self.worlds
         call = self._step_call

@@ -26,9 +26,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from slam_env.config import OdometryConfig, SensorConfig
-from slam_env.kernels.models import odometry_variances, velocity_variances
-from slam_env.kernels.odometry import noisy_control, odometry_uniforms, true_control
-from slam_env.kernels.sensing import SensorParams, emit_detections, in_view, scan_uniforms
+from slam_env.kernels.base.models import odometry_variances, velocity_variances
+from slam_env.kernels.stream.odometry import noisy_control, odometry_uniforms, true_control
+from slam_env.kernels.stream.sensing import SensorParams, emit_detections, in_view, scan_uniforms
 
 __all__ = ["Detections", "LandmarkSensor", "LineOfSight", "OdometrySensor"]
 
@@ -74,7 +74,7 @@ class LandmarkSensor:
     Model ``"cartesian"`` (seed 004): ``z = R(θ)ᵀ(m − t) + η``, the landmark in the
     robot frame, ``η ~ N(0, σz² I)`` (``cartesian_std`` [m]).
 
-    Visibility, in this order (:mod:`slam_env.kernels.sensing`):
+    Visibility, in this order (:mod:`slam_env.kernels.stream.sensing`):
 
     1. *Range and field of view*: the true range ``r ≤ max_range`` and the true
        bearing ``|φ| ≤ fov / 2`` (both inclusive; ``fov = 2π`` sees all around), in
@@ -205,7 +205,7 @@ class LandmarkSensor:
 class OdometrySensor:
     """Noisy odometry: the robot's true motion pose0 → pose1, decomposed into a
     control u, plus Gaussian noise sampled in action space with exactly the
-    covariance the filter's motion model uses (:mod:`slam_env.kernels.odometry`).
+    covariance the filter's motion model uses (:mod:`slam_env.kernels.stream.odometry`).
 
     Model ``"odometry"`` (seed 000), ``dim = 3``: ``u = (δrot1 [rad], δtr [m],
     δrot2 [rad])`` (a backwards motion has δtr < 0 and a small δrot1); noise

@@ -3,7 +3,7 @@ circular unicycle robot.
 
 The robot is driven kinematically as a unicycle for ``dt`` seconds over ``substeps``
 sub-steps (each: move v·h along the chord of the arc, i.e. at the sub-step's mean
-heading, and turn by ω·h; :mod:`slam_env.kernels.motion` holds that arithmetic, for a
+heading, and turn by ω·h; :mod:`slam_env.kernels.world.motion` holds that arithmetic, for a
 batch of one here and of B in :class:`~slam_env.world_batch.WorldBatch`). Before each
 move a pymunk point query checks that the robot's disc is clear at the destination;
 when it is not, the move is bisected down to the contact, so a collision *stops* the
@@ -24,15 +24,15 @@ others come back to Python and pymunk (:meth:`World._settle`). A
 :class:`~slam_env.world_batch.WorldBatch` also hands the kernel its worlds' static
 geometry, from which it settles the steps itself, contacts included, making the
 decisions these queries make from the distance a query would find
-(:mod:`slam_env.kernels.clearance`), and leaves to pymunk only a distance within
-round-off of a contact (:mod:`slam_env.kernels.motion`); a standalone world asks
+(:mod:`slam_env.kernels.world.clearance`), and leaves to pymunk only a distance within
+round-off of a contact (:mod:`slam_env.kernels.world.motion`); a standalone world asks
 pymunk, and is the reference the batch is tested against. A batched core keeps one world per
 sub-env and relays it at each reset (:meth:`World.relayout`).
 
 The static geometry lives in pymunk, which moves the robot through its public API, and
-also in arrays (:mod:`slam_env.kernels.geometry`, a batch of one world) for the
+also in arrays (:mod:`slam_env.kernels.world.static_geometry`, a batch of one world) for the
 compiled segment queries of line of sight and the proximity scan
-(:mod:`slam_env.kernels.raycast`), which answer exactly as pymunk's own segment queries
+(:mod:`slam_env.kernels.world.raycast`), which answer exactly as pymunk's own segment queries
 would. The robot's pose is a row of floats (the world's own, or its
 :class:`~slam_env.world_batch.WorldBatch`'s), mirrored into its body when the space is
 read, so a pickled world resumes bit-identically.
@@ -49,21 +49,16 @@ import pymunk
 
 from slam_env.config import RobotConfig
 from slam_env.drive import Drive
-from slam_env.kernels import raycast
-from slam_env.kernels.geometry import (
-    StaticGeometry,
-    StaticShapes,
-    empty_geometry,
-    set_world,
-    static_shapes,
-)
-from slam_env.kernels.motion import (
+from slam_env.kernels.world import raycast
+from slam_env.kernels.world.motion import (
     CLEARANCE_SLACK,
     CONTACT_BISECTIONS,
     MAX_MOVE_FRACTION,
     wrap_heading,
 )
+from slam_env.kernels.world.static_geometry import StaticGeometry, StaticShapes, empty_geometry
 from slam_env.layouts import LANDMARK_POST_RADIUS, Layout
+from slam_env.static_shapes import set_world, static_shapes
 
 __all__ = ["LANDMARK_POST_RADIUS", "MAX_MOVE_FRACTION", "World"]
 
@@ -314,7 +309,7 @@ class World:
 
     def _settle(self, moves: np.ndarray, reach: float) -> bool:
         """Move the robot from its position along ``moves`` ((n, 2) displacements, m:
-        :func:`~slam_env.kernels.motion.drive` flagged this step and set the heading),
+        :func:`~slam_env.kernels.world.motion.drive` flagged this step and set the heading),
         each checked with a clearance query and, when blocked, bisected down to the
         contact; ``reach`` (m) bounds the whole step. Returns True if blocked."""
         pose = self._pose[0]

@@ -9,9 +9,10 @@ import numpy as np
 from slam_env.config import EnvConfig
 from slam_env.drive import Drive
 from slam_env.faults import kidnap_pose
-from slam_env.kernels.geometry import StaticGeometry, empty_geometry, set_world
+from slam_env.kernels.world.static_geometry import StaticGeometry, empty_geometry
 from slam_env.layout_generators import layout_for
 from slam_env.layouts import Layout
+from slam_env.static_shapes import set_world
 from slam_env.world import World
 
 

@@ -2,7 +2,7 @@
 the robot's cell changes) against the full scan of every cell, bit for bit.
 
 The reference is the same grid built without classes, which takes the scanning path
-of :func:`slam_env.kernels.coverage.coverage_step` (what the kernels ran before)."""
+of :func:`slam_env.kernels.belief.coverage.coverage_step` (what the kernels ran before)."""
 
 from __future__ import annotations
 

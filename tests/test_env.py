@@ -368,7 +368,7 @@ def test_record_video_of_the_env(tmp_path):
 def test_the_odometry_reads_the_first_uniforms_of_its_step(motion_model) -> None:
     # A step's uniforms are laid out as the odometry reading's, then the scan's, then
     # the faults' (RawCore): the reading is the model's noisy control at the first ones.
-    from slam_env.kernels.odometry import noisy_control
+    from slam_env.kernels.stream.odometry import noisy_control
 
     env = gym.make(ENV_ID, motion_model=motion_model)
     env.reset(seed=4)

@@ -13,7 +13,7 @@ import slam_env  # noqa: F401  (registers the env IDs)
 from slam_env.belief import BeliefGeometry
 from slam_env.config import SensorConfig
 from slam_env.coverage import CoverageGrid
-from slam_env.kernels.local_map import MAP_CHANNELS, SUBSAMPLES, mark_scan_hits
+from slam_env.kernels.belief.local_map import MAP_CHANNELS, SUBSAMPLES, mark_scan_hits
 from slam_env.local_observation import (
     MAP_CELL,
     MAP_SIDE,

@@ -1,5 +1,5 @@
 """B EKF-SLAM filters of one configuration, stepped together: the filters of a native
-vector env's sub-envs, as one batched state (:mod:`slam_env.kernels.ekf`)."""
+vector env's sub-envs, as one batched state (:mod:`slam_env.kernels.ekf.filter`)."""
 
 from __future__ import annotations
 
@@ -9,8 +9,9 @@ import numpy as np
 
 from slam_env.ekf.chi2 import joint_gates
 from slam_env.ekf.filter import EKFSLAM
-from slam_env.kernels import association, ekf
-from slam_env.kernels.correction import correct, correction_workspaces
+from slam_env.kernels.ekf import association
+from slam_env.kernels.ekf import filter as ekf
+from slam_env.kernels.ekf.associated_update import correct, correction_workspaces
 
 
 class FilterBatch:
@@ -113,14 +114,14 @@ class FilterBatch:
 
     @property
     def config(self) -> tuple[np.ndarray, ...]:
-        """``(params, modes, joint_gates)``, as :func:`slam_env.kernels.correction.correct`
-        takes them."""
+        """``(params, modes, joint_gates)``, as
+        :func:`slam_env.kernels.ekf.associated_update.correct` takes them."""
         return (self.params, self.modes, self._joint_gates)
 
     @property
     def correction_io(self) -> tuple[np.ndarray, ...]:
         """The inputs and outputs of a correction, in
-        :func:`slam_env.kernels.correction.correct`'s order."""
+        :func:`slam_env.kernels.ekf.associated_update.correct`'s order."""
         return (
             self.z, self.ids, self.counts, self.assigned, self.nearest, self._held,
             self.status, self.nis, self.error,

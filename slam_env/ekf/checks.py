@@ -12,7 +12,7 @@ from typing import Any
 
 import numpy as np
 
-from slam_env.kernels.ekf_codes import COV_LIMIT
+from slam_env.kernels.ekf.codes import COV_LIMIT
 
 _FLOAT64 = np.dtype(np.float64)
 _INT64 = np.dtype(np.int64)
@@ -54,7 +54,7 @@ def float_array(value: Any, name: str, shape: tuple[int, ...]) -> np.ndarray:
 
 def covariance(value: Any, name: str, n: int, definite: bool) -> np.ndarray:
     """An n×n symmetric positive (semi-)definite covariance, entries at most
-    :data:`~slam_env.kernels.ekf_codes.COV_LIMIT` (beyond it the filter's sums overflow)."""
+    :data:`~slam_env.kernels.ekf.codes.COV_LIMIT` (beyond it the filter's sums overflow)."""
     cov = float_array(value, name, (n, n))
     biggest = float(np.abs(cov).max())
     if biggest > COV_LIMIT:

@@ -11,7 +11,7 @@ import numpy as np
 from slam_env.ekf import checks
 from slam_env.ekf.chi2 import chi2_gate
 from slam_env.ekf.models import MEASUREMENT_MODELS, MOTION_MODELS
-from slam_env.kernels import ekf_codes
+from slam_env.kernels.ekf import codes as ekf_codes
 
 CORRECTION_MODES = ("sequential", "batch")
 _CORRECTION_CODES = {"sequential": ekf_codes.SEQUENTIAL, "batch": ekf_codes.BATCH}
@@ -157,7 +157,7 @@ def kernel_config(
     new_landmark_sightings: int = 1,
     wide_pairing_scans: int = 1,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """One filter's configuration as the kernels of :mod:`slam_env.kernels.ekf` take
+    """One filter's configuration as the kernels of :mod:`slam_env.kernels.ekf.filter` take
     it: its row of ``params`` ((12,) float64: the motion noise (α1..α4, or σp, σθ, βp,
     βθ), Q00, Q01, Q11, the gate, ``inf`` for none, the association's match and
     new-landmark gates, the sightings a new landmark needs and the scans a wide pairing

@@ -3,7 +3,7 @@ its own data association, and the standard or First-Estimates Jacobian linearisa
 
 :class:`EKFSLAM` is one filter, usable without gymnasium or pymunk (a robot's logs, a
 notebook). It holds its state as a batch of one and runs the same compiled kernels as
-the vector envs (:mod:`slam_env.kernels.ekf`), so there is one implementation of the
+the vector envs (:mod:`slam_env.kernels.ekf.filter`), so there is one implementation of the
 filter; this class adds the checks of its inputs, and its base class
 :class:`~slam_env.ekf.belief_reads.BeliefReads` the reads of its belief.
 
@@ -32,7 +32,7 @@ Correspondences and linearisation
 ---------------------------------
 ``data_association="known"`` (the seeds) takes each observation's landmark ID from the
 caller. ``"nearest_neighbor"`` and ``"jcbb"`` take observations without IDs and choose
-the landmarks themselves (:mod:`slam_env.kernels.association`): individual
+the landmarks themselves (:mod:`slam_env.kernels.ekf.association`): individual
 compatibility within ``match_gate``, or Joint Compatibility Branch and Bound; an
 observation compatible with no landmark starts a new one only if none lies within the
 wider ``new_landmark_gate``, and is discarded otherwise; with ``wide_pairing_scans``
@@ -42,7 +42,7 @@ rival observation, in that many consecutive scans. The filter then owns the
 identities: a landmark's ID is its slot. ``linearization="fej"`` evaluates the
 Jacobians at the first estimates, ``"oc"`` takes FEJ's prediction and each measurement
 Jacobian at the latest estimate less the least change that keeps the global rotation
-unobservable (:mod:`slam_env.kernels.ekf`); ``"standard"`` is the seeds' filter.
+unobservable (:mod:`slam_env.kernels.ekf.filter`); ``"standard"`` is the seeds' filter.
 
 Atomic calls
 ------------
@@ -66,10 +66,12 @@ from slam_env.ekf.chi2 import joint_gates
 from slam_env.ekf.configuration import checked_config, kernel_config
 from slam_env.ekf.models import MOTION_MODELS
 from slam_env.ekf.results import UpdateResult
-from slam_env.kernels import association, ekf, ekf_codes
-from slam_env.kernels.correction import correction_workspaces
-from slam_env.kernels.models import wrap_angle
-from slam_env.kernels.pinning import pin
+from slam_env.kernels.base.models import wrap_angle
+from slam_env.kernels.base.pinning import pin
+from slam_env.kernels.ekf import association
+from slam_env.kernels.ekf import codes as ekf_codes
+from slam_env.kernels.ekf import filter as ekf
+from slam_env.kernels.ekf.associated_update import correction_workspaces
 
 __all__ = ["EKFSLAM"]
 
@@ -127,7 +129,7 @@ class EKFSLAM(BeliefReads):
             probability, 2 dof per pairing.
         new_landmark_sightings: 1 (a new landmark starts at its first sighting) or 2
             (it is held as tentative until a second, consistent sighting: what keeps
-            clutter out of the map; see :mod:`slam_env.kernels.association`).
+            clutter out of the map; see :mod:`slam_env.kernels.ekf.association`).
         wide_pairing_scans: 1 (JCBB commits every pairing of its hypothesis at once)
             or more (``"jcbb"`` only): a *wide* pairing, whose innovation covariance S
             has ``det S`` above ``WIDE_RATIO²`` (100) times ``det Q`` (the pose is that
@@ -136,7 +138,7 @@ class EKFSLAM(BeliefReads):
             other observation of the scan compatible with it, in this many consecutive
             scans; one landmark is followed at a time. What keeps a new landmark seen
             where a mapped one is expected from being taken for it (see
-            :mod:`slam_env.kernels.association`, "Wide pairings").
+            :mod:`slam_env.kernels.ekf.association`, "Wide pairings").
         linearization: ``"standard"`` (the seeds), ``"fej"`` (First-Estimates
             Jacobian EKF) or ``"oc"`` (observability-constrained EKF).
 
@@ -196,7 +198,7 @@ class EKFSLAM(BeliefReads):
         self._initial_pose_cov = cov0
         n_max = config.max_landmarks
         dmax = 3 + 2 * n_max
-        # The state, a batch of one (slam_env.kernels.ekf): x (1, dmax), P (1, dmax,
+        # The state, a batch of one (slam_env.kernels.ekf.filter): x (1, dmax), P (1, dmax,
         # dmax), n (1,), id_to_slot (1, N), slot_to_id (1, N), n_rejected (1,).
         self._xb = np.zeros((1, dmax))
         self._Pb = np.zeros((1, dmax, dmax))

@@ -2,7 +2,7 @@
 as functions of numpy arrays.
 
 The equations themselves are written once, as the scalar compiled functions of
-:mod:`slam_env.kernels.models` that the filter's kernels and the odometry sensor call;
+:mod:`slam_env.kernels.base.models` that the filter's kernels and the odometry sensor call;
 these are their array forms, for tests, planners and users. The filter and the env's
 odometry sensor use the same noise covariances, so a noise-matched filter is matched
 exactly.
@@ -35,7 +35,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from slam_env.kernels import models as km
+from slam_env.kernels.base import models as km
 
 # --------------------------------------------------------------------------- noise
 
@@ -150,7 +150,7 @@ class MotionModel:
     ``R_x = J_u · noise_cov · J_uᵀ``; ``control_dim`` is the length of u;
     ``linearise(x, y, θ, u, params)`` the scalar prediction (next pose, G by its two
     free entries, R_x). ``code`` is the model's number in the kernels
-    (:data:`slam_env.kernels.models.ODOMETRY` / ``VELOCITY``).
+    (:data:`slam_env.kernels.base.models.ODOMETRY` / ``VELOCITY``).
     """
 
     name: str
@@ -188,7 +188,7 @@ MOTION_MODELS: dict[str, MotionModel] = {
 
 
 def _many(what: int, model: int, pose, points, width: int) -> np.ndarray:
-    """:func:`slam_env.kernels.models.measurement_many` over the leading axes of
+    """:func:`slam_env.kernels.base.models.measurement_many` over the leading axes of
     ``points: (..., 2)``; returns ``(..., width)``."""
     pts = np.asarray(points, dtype=np.float64)
     lead = pts.shape[:-1]
@@ -314,7 +314,7 @@ class MeasurementModel:
     wrapped to [−π, π). ``singular(pose, m) -> (k,) bool`` marks landmarks at which
     ``h`` cannot be linearised (range-bearing: a landmark on the robot, q = 0).
     ``code`` is the model's number in the kernels
-    (:data:`slam_env.kernels.models.RANGE_BEARING` / ``CARTESIAN``).
+    (:data:`slam_env.kernels.base.models.RANGE_BEARING` / ``CARTESIAN``).
     """
 
     name: str

@@ -1,7 +1,7 @@
 """Data association in the filter (``data_association="nearest_neighbor" | "jcbb"``):
 the known-ID result recovered on clean data, JCBB refusing what only joint compatibility
 reveals, the rule for new landmarks, the filter owning its identities, and the scores
-against the truth (:mod:`slam_env.kernels.association_score`)."""
+against the truth (:mod:`slam_env.kernels.ekf.association_score`)."""
 
 from __future__ import annotations
 
@@ -14,8 +14,9 @@ import pytest
 
 from slam_env.ekf import DISCARDED, EKFSLAM, INITIALISED, TENTATIVE, chi2_gate
 from slam_env.ekf.models import MEASUREMENT_MODELS, MOTION_MODELS
-from slam_env.kernels import association, ekf_codes
-from slam_env.kernels import association_score as score
+from slam_env.kernels.ekf import association
+from slam_env.kernels.ekf import association_score as score
+from slam_env.kernels.ekf import codes as ekf_codes
 
 ALPHAS = (0.002, 0.001, 0.002, 0.001)
 Q = {

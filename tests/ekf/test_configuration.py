@@ -11,7 +11,7 @@ import pytest
 
 from slam_env.ekf import EKFSLAM, kernel_config
 from slam_env.ekf.models import MEASUREMENT_MODELS, MOTION_MODELS
-from slam_env.kernels import ekf_codes
+from slam_env.kernels.ekf import codes as ekf_codes
 from tests.ekf.filter_options import GOOD, Q, with_
 
 

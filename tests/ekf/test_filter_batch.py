@@ -13,9 +13,9 @@ import pytest
 from slam_env.ekf import EKFSLAM
 from slam_env.ekf.batch import FilterBatch
 from slam_env.ekf.models import MEASUREMENT_MODELS, MOTION_MODELS
-from slam_env.kernels.association import association_workspace_sizes
-from slam_env.kernels.correction import workspaces_fit
-from slam_env.kernels.ekf import update_workspace_size
+from slam_env.kernels.ekf.associated_update import workspaces_fit
+from slam_env.kernels.ekf.association import association_workspace_sizes
+from slam_env.kernels.ekf.filter import update_workspace_size
 
 Q = np.diag([0.03**2, math.radians(0.5) ** 2])
 

@@ -1,5 +1,5 @@
 """EKFSLAM calls its kernels' compiled code pinned to its own arrays
-(:mod:`slam_env.kernels.pinning`): code that trusts its arguments. So the arrays of
+(:mod:`slam_env.kernels.base.pinning`): code that trusts its arguments. So the arrays of
 each call must be of the pinned types whatever the caller passed, and every filter (a
 copy, an unpickled one, a view over a batch, one whose workspaces grew) must step
 through calls pinned to its own arrays, not to those of the filter it came from."""

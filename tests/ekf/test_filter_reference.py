@@ -2,7 +2,7 @@
 covariance, landmark order, statuses and NIS to 1e-9 over random sequences of
 predictions, corrections (with gate rejections) and new landmarks, for every
 motion × measurement model and both correction modes; and the batched kernels
-(:mod:`slam_env.kernels.ekf`) the same way, all eight combinations in one batch."""
+(:mod:`slam_env.kernels.ekf.filter`) the same way, all eight combinations in one batch."""
 
 from __future__ import annotations
 
@@ -15,7 +15,7 @@ import pytest
 from slam_env.ekf import EKFSLAM, chi2_gate, kernel_config
 from slam_env.ekf.models import MEASUREMENT_MODELS, MOTION_MODELS
 from slam_env.geometry import wrap_angle
-from slam_env.kernels import ekf
+from slam_env.kernels.ekf import filter as ekf
 
 ALPHAS = (0.02, 0.01, 0.02, 0.01)
 CONTROL_NOISE = (0.02, 0.01, 0.01, 0.05)

@@ -1,10 +1,10 @@
 """The bounding-box tree of Chipmunk's static index as plain Python objects, one node
-at a time: the reference that :func:`slam_env.kernels.chipmunk.bb_tree` (compiled)
+at a time: the reference that :func:`slam_env.kernels.world.chipmunk.bb_tree` (compiled)
 is held to. cpfmin/cpfmax are ``a if a < b else b``, which keeps Chipmunk's sign of 0."""
 
 from __future__ import annotations
 
-from slam_env.kernels.chipmunk import Box, _fmax, _fmin
+from slam_env.kernels.world.chipmunk import Box, _fmax, _fmin
 
 
 def _merge(a: Box, b: Box) -> Box:

@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from slam_env.kernels.ekf_correction import apply_factors
+from slam_env.kernels.ekf.corrections import apply_factors
 
 
 def reference(P: np.ndarray, U: np.ndarray, r: int, d: int) -> np.ndarray:

@@ -12,11 +12,11 @@ from slam_env.belief import BeliefGeometry, EgocentricEncoding, FullEncoding
 from slam_env.belief_entropy import BeliefEntropy
 from slam_env.coverage import CoverageGrid
 from slam_env.ekf import EKFSLAM
-from slam_env.kernels.belief_state import BeliefBatch, filter_belief
-from slam_env.kernels.coverage import coverage_step
-from slam_env.kernels.diagnostics import DIAGNOSTICS, EMPTY_MAP_RMSE, belief_diagnostics
-from slam_env.kernels.entropy import belief_entropy
-from slam_env.kernels.reward import RewardSignals, active_slam_reward
+from slam_env.kernels.belief.belief_state import BeliefBatch, filter_belief
+from slam_env.kernels.belief.coverage import coverage_step
+from slam_env.kernels.belief.diagnostics import DIAGNOSTICS, EMPTY_MAP_RMSE, belief_diagnostics
+from slam_env.kernels.belief.entropy import belief_entropy
+from slam_env.kernels.belief.reward import RewardSignals, active_slam_reward
 from tests.kernels import reference
 
 M = 6  # landmark slots

@@ -8,20 +8,13 @@ import numba
 import numpy as np
 import pytest
 
-from slam_env.kernels import (
-    active_step,
-    borrowing_kernel,
-    divergence,
-    egocentric,
-    ekf,
-    ekf_correction,
-    ekf_landmarks,
-    full_belief,
-    local_map,
-    motion,
-    raw_step,
-    sensing,
-)
+from slam_env.kernels.base.compiling import borrowing_kernel
+from slam_env.kernels.belief import active_step, divergence, egocentric, full_belief, local_map
+from slam_env.kernels.ekf import corrections as ekf_correction
+from slam_env.kernels.ekf import filter as ekf
+from slam_env.kernels.ekf import new_landmarks as ekf_landmarks
+from slam_env.kernels.stream import raw_step, sensing
+from slam_env.kernels.world import motion
 
 EKF_STEP = (
     ekf.predict,

@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from slam_env.kernels.chipmunk import bb_tree
+from slam_env.kernels.world.chipmunk import bb_tree
 from tests.kernels.chipmunk_tree_reference import bb_tree as reference_tree
 
 

@@ -8,9 +8,10 @@ import numpy as np
 import pytest
 
 from slam_env.config import RobotConfig
-from slam_env.kernels.clearance import clearance, clearance_among
-from slam_env.kernels.geometry import empty_geometry, set_world, static_shapes
-from slam_env.kernels.raycast import all_leaves, near_leaves
+from slam_env.kernels.world.clearance import clearance, clearance_among
+from slam_env.kernels.world.raycast import all_leaves, near_leaves
+from slam_env.kernels.world.static_geometry import empty_geometry
+from slam_env.static_shapes import set_world, static_shapes
 from slam_env.world import _MOTION_FILTER, World
 from tests.kernels.geometry_worlds import WALL, world_layouts
 

@@ -4,8 +4,10 @@ and where no cache directory is writable the kernels still work (and say so once
 from __future__ import annotations
 
 import json
+import shutil
 import subprocess
 import sys
+from pathlib import Path
 
 # A process that steps both envs and the filter, then reports what numba compiled
 # (cache misses) and loaded (cache hits), over every kernel of the package.
@@ -13,7 +15,7 @@ _RUN = """
 import json, warnings
 import gymnasium as gym
 import slam_env
-from slam_env.kernels import KERNELS
+from slam_env.kernels.base.compiling import KERNELS
 for env_id in ("slam_env/Landmarks-v0", "slam_env/ActiveSLAM-v0"):
     env = gym.make(env_id)
     env.reset(seed=0)
@@ -35,15 +37,13 @@ def _run(code: str) -> subprocess.CompletedProcess:
 
 
 def test_a_second_process_compiles_nothing() -> None:
-    from pathlib import Path
-
-    import slam_env.kernels as kernels
+    from slam_env.kernels.base.compiling import cache_directory
 
     _run(_RUN)  # warms the cache, if the suite has not already
     stats = json.loads(_run(_RUN).stdout.strip().splitlines()[-1])
     assert stats["misses"] == 0, stats
     assert stats["hits"] >= 4, stats  # the kernels the envs call came from the cache
-    assert any(Path(kernels.cache_directory()).rglob("*.nbi"))  # in the hashed directory
+    assert any(Path(cache_directory()).rglob("*.nbi"))  # in the hashed directory
 
 
 def test_without_a_writable_cache_the_kernels_compile_and_warn_once() -> None:
@@ -64,20 +64,44 @@ def test_without_a_writable_cache_the_kernels_compile_and_warn_once() -> None:
     assert len(notices) == 1 and "NUMBA_CACHE_DIR" in notices[0]
 
 
-def test_the_cache_is_named_by_every_kernel_source(tmp_path) -> None:
+def _compiled_files() -> set[Path]:
+    """The source file of every kernel that the package and the agents define."""
+    import agents.search_kernel  # noqa: F401  (the planners' kernel)
+    import slam_env.ekf
+    import slam_env.vector  # noqa: F401  (imports every kernel of the envs)
+    from slam_env.kernels.base.compiling import KERNELS
+
+    return {Path(k.py_func.__code__.co_filename).resolve() for k in KERNELS}
+
+
+def test_every_compiled_function_of_slam_env_lives_in_the_hashed_tree() -> None:
+    from slam_env.kernels.base.compiling import KERNEL_TREE
+
+    files = _compiled_files()
+    ours = {f for f in files if "slam_env" in f.parts}
+    assert len(ours) >= 30  # the envs' and the filter's kernels were all imported
+    assert all(KERNEL_TREE in f.parents for f in ours), sorted(map(str, ours))
+
+
+def test_an_edit_to_any_compiled_file_changes_its_cache_directory(tmp_path) -> None:
     """numba checks a cached kernel only against its own file: an edit to a kernel it
-    calls from another file must not reuse the cache, so its name hashes them all."""
-    import shutil
-    from pathlib import Path
+    calls from another file must not reuse the cache, so the cache's name hashes every
+    source of the kernel's tree (a stale cache once came from a compiled file that lay
+    outside the hashed folder)."""
+    from slam_env.kernels.base import compiling
 
-    import slam_env.kernels as kernels
-
-    folder = tmp_path / "kernels"
-    shutil.copytree(Path(kernels.__file__).parent, folder, ignore=shutil.ignore_patterns("__*"))
-    before = kernels.sources_hash(folder)
-    assert before == kernels.sources_hash(folder)  # stable
-    models = folder / "models.py"
-    models.write_text(models.read_text() + "\n# an edit\n")
-    assert kernels.sources_hash(folder) != before
-    here = kernels.sources_hash(Path(kernels.__file__).parent)
-    assert Path(kernels.cache_directory()).name == f"numba-{here}"
+    files = _compiled_files()
+    trees = {compiling.tree_of(f) for f in files}
+    for tree in trees:
+        copy = tmp_path / tree.name
+        shutil.copytree(tree, copy, ignore=shutil.ignore_patterns("__pycache__"))
+        before = compiling.sources_hash(copy)
+        assert before == compiling.sources_hash(tree)  # the copy hashes as the tree
+        for source in (f for f in files if compiling.tree_of(f) == tree):
+            edited = copy / source.relative_to(tree)
+            text = edited.read_text()
+            edited.write_text(text + "\n# an edit\n")
+            assert compiling.sources_hash(copy) != before, source
+            edited.write_text(text)
+        assert Path(compiling.cache_directory(tree)).name == f"numba-{before}"
+        shutil.rmtree(copy)

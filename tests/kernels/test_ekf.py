@@ -13,8 +13,9 @@ import pytest
 
 from slam_env.ekf import EKFSLAM, Status, kernel_config
 from slam_env.ekf.models import MEASUREMENT_MODELS, MOTION_MODELS
-from slam_env.kernels import ekf, ekf_codes
-from slam_env.kernels.models import wrap_angle
+from slam_env.kernels.base.models import wrap_angle
+from slam_env.kernels.ekf import codes as ekf_codes
+from slam_env.kernels.ekf import filter as ekf
 
 M = 8  # landmark capacity of every world
 DMAX = 3 + 2 * M

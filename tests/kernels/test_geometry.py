@@ -10,17 +10,16 @@ import pymunk
 import pytest
 
 from slam_env.config import RobotConfig
-from slam_env.kernels.chipmunk import chipmunk_hull
-from slam_env.kernels.geometry import (
+from slam_env.kernels.world.chipmunk import chipmunk_hull
+from slam_env.kernels.world.static_geometry import (
     N_CIRCLES,
     N_POLYGONS,
     N_SEGMENTS,
     StaticGeometry,
     empty_geometry,
-    set_world,
-    static_shapes,
 )
 from slam_env.layouts import LANDMARK_POST_RADIUS, Layout
+from slam_env.static_shapes import set_world, static_shapes
 from slam_env.world import World
 from tests.kernels.geometry_worlds import WALL, slanted_layout, world_layouts
 

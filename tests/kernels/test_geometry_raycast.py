@@ -12,9 +12,8 @@ import pymunk
 import pytest
 
 from slam_env.config import RobotConfig
-from slam_env.kernels import kernel
-from slam_env.kernels.geometry import StaticGeometry, empty_geometry, set_world, static_shapes
-from slam_env.kernels.raycast import (
+from slam_env.kernels.base.compiling import kernel
+from slam_env.kernels.world.raycast import (
     _node_entry,
     _tree_fraction,
     all_leaves,
@@ -27,8 +26,10 @@ from slam_env.kernels.raycast import (
     segment_fractions,
     sight_lines,
 )
-from slam_env.kernels.shape_queries import shape_alpha
+from slam_env.kernels.world.shape_queries import shape_alpha
+from slam_env.kernels.world.static_geometry import StaticGeometry, empty_geometry
 from slam_env.layouts import Layout
+from slam_env.static_shapes import set_world, static_shapes
 from slam_env.world import _MOTION_FILTER, CAT_ROBOT, World
 from tests.kernels.geometry_worlds import WALL, slanted_layout, world_layouts
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from slam_env.kernels.linalg import (
+from slam_env.kernels.base.linalg import (
     cholesky_in_place,
     log_det_from_cholesky,
     solve_lower_in_place,

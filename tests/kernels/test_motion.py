@@ -7,16 +7,17 @@ import math
 import numpy as np
 import pytest
 
-from slam_env.kernels.clearance import clearance
-from slam_env.kernels.geometry import empty_geometry, set_world
-from slam_env.kernels.motion import (
+from slam_env.kernels.world.clearance import clearance
+from slam_env.kernels.world.motion import (
     CLEARANCE_SLACK,
     MAX_MOVE_FRACTION,
     TOO_MANY_MOVES,
     drive,
     wrap_heading,
 )
+from slam_env.kernels.world.static_geometry import empty_geometry
 from slam_env.layouts import LANDMARK_POST_RADIUS, Layout
+from slam_env.static_shapes import set_world
 from tests.kernels.geometry_worlds import WALL, world_layouts
 
 RADIUS, DT, SUBSTEPS = 0.25, 0.2, 4

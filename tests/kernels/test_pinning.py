@@ -6,8 +6,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from slam_env.kernels import kernel
-from slam_env.kernels.pinning import pin
+from slam_env.kernels.base.compiling import kernel
+from slam_env.kernels.base.pinning import pin
 
 
 @kernel

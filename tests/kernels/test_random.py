@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from slam_env.kernels.random import normal_pair
+from slam_env.kernels.base.random import normal_pair
 
 
 def test_normal_pair_is_the_box_muller_transform() -> None:

@@ -8,13 +8,13 @@ import numpy as np
 import pytest
 
 from slam_env.config import EnvConfig, SensorConfig, WorldConfig
-from slam_env.kernels.raycast import line_of_sight
-from slam_env.kernels.sensing import (
+from slam_env.kernels.stream.sensing import (
     proximity_scan,
     scan_uniforms,
     sense_landmarks,
     sensing_scratch,
 )
+from slam_env.kernels.world.raycast import line_of_sight
 from slam_env.sensors import LandmarkSensor
 from slam_env.world_batch import WorldBatch
 
