@@ -118,7 +118,7 @@ class EpisodeRecord:
     map_rmse: np.ndarray  # (T+1,) m, nan before the first landmark
     collision: np.ndarray  # (T+1,) bool
     rewards: np.ndarray  # (T,)
-    layout: Any = None  # slam_env.layouts.Layout of the episode
+    layout: Any = None  # slam_env.world.layouts.Layout of the episode
     belief: Any = None  # final slam_env.overlay.BeliefOverlay
     world: str = ""  # short digest of the world (same worlds ⇔ same digests)
     frames: list[np.ndarray] = field(default_factory=list)

@@ -15,7 +15,7 @@ from agents.grid_map import GridMap
 from agents.grid_search import nearest_passable
 from agents.sensor_sweep import CoverageMap
 from slam_env.config import EnvConfig
-from slam_env.layouts import LANDMARK_POST_RADIUS, Layout
+from slam_env.world.layouts import LANDMARK_POST_RADIUS, Layout
 
 
 class EpisodeWatch:

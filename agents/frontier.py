@@ -13,7 +13,7 @@ from agents.grid_search import dijkstra, nearest_passable, path_from_parents
 from agents.heuristic import HeuristicAgent, HeuristicParams
 from agents.path_control import ControllerParams, PathFollower, unicycle_control
 from agents.sensor_sweep import box_sum
-from slam_env.geometry import wrap_angle
+from slam_env.world.frames import wrap_angle
 
 EXPLORE, LOCALISE, REFINE = "explore", "localise", "refine"
 #: m², a reachable part of the planning grid smaller than this is a pocket to leave,

@@ -18,7 +18,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from slam_env.layouts import DEFAULT_WALL_THICKNESS, Layout
+from slam_env.world.layouts import DEFAULT_WALL_THICKNESS, Layout
 
 
 def _segment_distances(

@@ -15,7 +15,7 @@ from agents.heuristic import HeuristicAgent, HeuristicParams
 from agents.path_control import PathFollower
 from agents.sensor_sweep import box_sum
 from slam_env.ekf.models import MEASUREMENT_MODELS
-from slam_env.geometry import odometry_from_poses, velocity_from_poses, wrap_angle
+from slam_env.world.frames import odometry_from_poses, velocity_from_poses, wrap_angle
 from slam_env.wrappers import ENTROPY_FLOOR, landmark_prior_variance
 
 #: (speed, turn) fractions of the default motion primitives: straight, gentle and

@@ -38,7 +38,7 @@ from agents.arguments import check_count
 from agents.goal_choice import CHOICES, EXPLORE, GoalChoiceAgent, Policy
 from agents.suite_metrics import landmarks_needed
 from agents.world_sampling import REFERENCE_ARENA, episode_length
-from slam_env.layouts import LANDMARK_POST_RADIUS
+from slam_env.world.layouts import LANDMARK_POST_RADIUS
 
 MAPPED_SHARE = 0.9
 EXPLORING = tuple(i for i, choice in enumerate(CHOICES) if choice.mode == EXPLORE)

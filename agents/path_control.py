@@ -10,7 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from slam_env.geometry import wrap_angle
+from slam_env.world.frames import wrap_angle
 
 
 @dataclass(frozen=True)

@@ -78,10 +78,10 @@ from agents.grid_search import astar, nearest_passable
 from agents.path_control import ControllerParams, PathFollower
 from slam_env.config import make_config
 from slam_env.ekf import EKFSLAM, LINEARIZATIONS, UpdateResult
-from slam_env.env import unpack_detections
 from slam_env.kernels.ekf.association_score import SCORE_NAMES, score_association
-from slam_env.layouts import LANDMARK_POST_RADIUS
 from slam_env.metrics import map_rmse, nees, nees_band, pose_error, share_in_nees_band
+from slam_env.sensing.raw_observation import unpack_detections
+from slam_env.world.layouts import LANDMARK_POST_RADIUS
 from slam_env.wrappers import DEFAULT_GATE
 
 ENV_ID = "slam_env/Landmarks-v0"

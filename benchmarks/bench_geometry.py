@@ -25,10 +25,10 @@ from agents.arguments import positive_int
 from slam_env.config import RobotConfig, WorldConfig
 from slam_env.kernels.world.raycast import lines_of_sight, ray_fractions
 from slam_env.kernels.world.static_geometry import empty_geometry
-from slam_env.layout_generators import preset_layout, random_layout
-from slam_env.layouts import Layout
-from slam_env.static_shapes import set_world
-from slam_env.world import _ALL, _MOTION_FILTER, CAT_ROBOT, World
+from slam_env.world.layout_generators import preset_layout, random_layout
+from slam_env.world.layouts import Layout
+from slam_env.world.pymunk_world import _ALL, _MOTION_FILTER, CAT_ROBOT, World
+from slam_env.world.static_shapes import set_world
 
 
 def best_ns(fn: Callable[[], object], n: int, repeats: int) -> float:

@@ -38,7 +38,7 @@ import numpy as np
 
 from slam_env.ekf import CORRECTED, INITIALISED, REJECTED, UpdateResult, checks
 from slam_env.ekf.models import MEASUREMENT_MODELS, MOTION_MODELS
-from slam_env.geometry import wrap_angle
+from slam_env.world.frames import wrap_angle
 
 __all__ = ["IdealEKF"]
 

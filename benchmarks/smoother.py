@@ -43,8 +43,8 @@ import scipy.sparse
 import scipy.sparse.linalg
 
 from slam_env.ekf.models import MEASUREMENT_MODELS, MOTION_MODELS
-from slam_env.geometry import wrap_angle
 from slam_env.kernels.base import models as km
+from slam_env.world.frames import wrap_angle
 
 __all__ = [
     "MOTION_FLOOR",

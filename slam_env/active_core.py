@@ -36,11 +36,11 @@ from slam_env.kernels.belief.diagnostics import (
 )
 from slam_env.kernels.belief.divergence import diverged
 from slam_env.kernels.ekf.association_score import SCORE_NAMES
-from slam_env.layouts import Layout
 from slam_env.local_observation import LocalEncoding
 from slam_env.overlay import BeliefOverlay
 from slam_env.random_blocks import RandomBlocks
 from slam_env.raw_core import BatchCore, RawCore
+from slam_env.world.layouts import Layout
 from slam_env.wrappers import DIVERGENCE_REJECTIONS, PASSTHROUGH_KEYS, REWARD_TERMS
 
 # Rows of the diagnostics kernel's output, by name.

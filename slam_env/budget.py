@@ -108,7 +108,7 @@ def world_size(config: EnvConfig) -> WorldSize:
     """The :class:`WorldSize` of ``config``, without generating or validating a world:
     a layout is parsed (a file is read), a preset or random world is sized from the
     options."""
-    from slam_env.layout_files import load_layout
+    from slam_env.world.layout_files import load_layout
 
     if config.layout is not None:
         layout = load_layout(config.layout)
@@ -341,7 +341,7 @@ def _check_work(config: EnvConfig) -> int:
 
 def _check_world(config: EnvConfig, world: WorldSize, coverage: bool) -> int:
     """Landmarks, obstacles, detection rows and the arena. Returns the arena's cells."""
-    from slam_env.layout_generators import landmark_capacity
+    from slam_env.world.layout_generators import landmark_capacity
 
     if config.layout is None:
         counts = {"n_landmarks": world.n_landmarks, "n_obstacles": world.n_obstacles}
@@ -406,7 +406,7 @@ def detections_in_view(config: EnvConfig, world: WorldSize) -> int:
     """The most detections a step can hold: the detection rows, the landmarks, and no
     more than fit within ``max_range`` of the robot at their least spacing s, (2R/s + 1)²
     (their discs of radius s/2 lie inside a disc of radius R + s/2)."""
-    from slam_env.layout_generators import landmark_spacing
+    from slam_env.world.layout_generators import landmark_spacing
 
     spacing = landmark_spacing(config.world if config.layout is None else None)
     around = (2.0 * config.sensor.max_range / spacing + 1.0) ** 2
@@ -435,7 +435,7 @@ def _check_belief_work(config: EnvConfig, world: WorldSize, belief: str) -> None
 def _check_observation_bounds(config: EnvConfig, world: WorldSize, belief: str | None) -> None:
     """Every bound of the observation space must be a finite float32."""
     from slam_env.belief import BeliefGeometry
-    from slam_env.raw_core import detection_reach, odometry_translation_bound
+    from slam_env.sensing.raw_observation import detection_reach, odometry_translation_bound
 
     bounds = {
         "odometry bound = 4·max_speed·dt + 1 m": odometry_translation_bound(config),

@@ -244,7 +244,7 @@ class RewardConfig:
 @dataclass(frozen=True)
 class FaultConfig:
     """Injected faults for robustness studies, all off by default (see
-    :mod:`slam_env.faults`). Probabilities are per env step."""
+    :mod:`slam_env.world.kidnap`). Probabilities are per env step."""
 
     outlier_rate: float = 0.0  # a spurious detection with a wrong (seen) landmark ID
     clutter_rate: float = 0.0  # a spurious detection of no landmark at all (ID -1)
@@ -282,7 +282,7 @@ class FaultConfig:
 
 @dataclass(frozen=True)
 class EnvConfig:
-    """Everything the env needs. ``layout`` (a :class:`slam_env.layouts.Layout`, a dict
+    """Everything the env needs. ``layout`` (a :class:`slam_env.world.layouts.Layout`, a dict
     or a JSON/YAML path) overrides ``world.preset`` with a user-given world."""
 
     world: WorldConfig = field(default_factory=WorldConfig)

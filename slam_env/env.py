@@ -9,25 +9,14 @@ import numpy as np
 from slam_env.budget import check_budget, world_size
 from slam_env.config import EnvConfig, check_option_names, make_config
 from slam_env.raw_core import RawCore
-from slam_env.sensors import LandmarkSensor, OdometrySensor
+from slam_env.sensing.landmark_sensor import LandmarkSensor
+from slam_env.sensing.odometry_sensor import OdometrySensor
 from slam_env.single_env import CoreEnv, check_reset_options
 
-__all__ = ["ENV_ARGUMENTS", "LandmarksEnv", "check_reset_options", "unpack_detections"]
+__all__ = ["ENV_ARGUMENTS", "LandmarksEnv", "check_reset_options"]
 
 # The env's own arguments besides the config options (for the list of valid names).
 ENV_ARGUMENTS = ("config", "render_mode")
-
-
-def unpack_detections(obs: dict[str, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
-    """The valid detections of a raw observation: ``z`` (k, 2) float64 and ``ids`` (k,)
-    int64, in the observation's order (ascending ID)."""
-    valid = obs["mask"] > 0.5
-    k = int(np.count_nonzero(valid))
-    if valid[:k].all():  # the env's layout: detections first, then padding
-        z = obs["detections"][: 2 * k].reshape(k, 2).astype(np.float64)
-        return z, obs["ids"][:k].astype(np.int64)
-    z = obs["detections"].reshape(-1, 2)[valid].astype(np.float64)
-    return z, obs["ids"][valid].astype(np.int64)
 
 
 class LandmarksEnv(CoreEnv):
@@ -68,8 +57,8 @@ class LandmarksEnv(CoreEnv):
     |                |        | last step was blocked (as ``info["collision"]``), else 0.0    |
 
     ``detections`` is flat so that every key is a vector (what stable-baselines3's
-    policies expect); :func:`unpack_detections` returns the valid ``(k, 2)`` rows and
-    their integer IDs.
+    policies expect); :func:`~slam_env.sensing.raw_observation.unpack_detections`
+    returns the valid ``(k, 2)`` rows and their integer IDs.
     Detections are sorted by landmark ID. δtr/Δp may be negative (reversing). Values
     are clipped to the bounds, which lie more than 10σ beyond any physical reading.
 

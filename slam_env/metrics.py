@@ -10,9 +10,9 @@ from typing import Any
 import numpy as np
 
 from slam_env.ekf import chi2_ppf
-from slam_env.geometry import wrap_angle
 from slam_env.kernels.belief.diagnostics import pose_nees as kernel_pose_nees
 from slam_env.kernels.belief.entropy import gaussian_entropy as kernel_gaussian_entropy
+from slam_env.world.frames import wrap_angle
 
 
 def pose_error(estimate, truth) -> np.ndarray:

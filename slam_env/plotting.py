@@ -17,7 +17,6 @@ from matplotlib.figure import Figure
 from matplotlib.patches import Polygon, Rectangle
 from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
 
-from slam_env.layouts import Layout
 from slam_env.metrics import averaged_nees, nees_bands
 from slam_env.overlay import (
     ELLIPSE_FILL_ALPHA,
@@ -26,6 +25,7 @@ from slam_env.overlay import (
     BeliefOverlay,
     ellipse_points,
 )
+from slam_env.world.layouts import Layout
 
 __all__ = [
     "draw_belief",

@@ -25,7 +25,6 @@ from typing import Any
 
 import numpy as np
 
-from slam_env.layouts import Layout
 from slam_env.overlay import (
     CHI2_2DOF_95,
     ELLIPSE_FILL_ALPHA,
@@ -35,6 +34,7 @@ from slam_env.overlay import (
     ellipse_points,
     ellipses_points,
 )
+from slam_env.world.layouts import Layout
 
 __all__ = [
     "CHI2_2DOF_95",

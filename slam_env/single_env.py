@@ -12,8 +12,8 @@ from gymnasium import spaces
 from gymnasium.error import ResetNeeded
 
 from slam_env.actions import DISCRETE_PRIMITIVES, parse_action
-from slam_env.layouts import Layout, as_floats, as_int
-from slam_env.world import World
+from slam_env.world.layouts import Layout, as_floats, as_int
+from slam_env.world.pymunk_world import World
 
 
 def check_reset_options(options: Any, env_name: str) -> None:
@@ -158,7 +158,7 @@ class CoreEnv(gym.Env):
         and gives the copy noise of its own by setting its ``np_random``.
 
         The moved world, started where the robot is now (or at ``robot_pose``), must
-        pass :meth:`~slam_env.layouts.Layout.validate` (landmarks in the arena, clear
+        pass :meth:`~slam_env.world.layouts.Layout.validate` (landmarks in the arena, clear
         of obstacles and walls, no two posts overlapping, the robot clear of them all);
         ``TypeError`` or ``ValueError`` otherwise, and nothing is moved.
         """

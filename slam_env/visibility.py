@@ -3,7 +3,7 @@
 The sensor detects a landmark in range and in its field of view when the segment to it
 is clear of walls, obstacles and other landmarks' posts (see
 :mod:`slam_env.kernels.stream.sensing`). The region is traced with the world's own range
-query, :meth:`slam_env.world.World.range_scan`, which stops at that same geometry, over
+query, :meth:`slam_env.world.pymunk_world.World.range_scan`, which stops at that same geometry, over
 rays spread across the field of view: a landmark whose line of sight is blocked lies in
 a shadow of the region, one that is detected is reached by it (up to its own post).
 """
@@ -21,7 +21,7 @@ _FULL_CIRCLE = 2.0 * math.pi - 1e-9
 
 
 class RangeQuery(Protocol):
-    """What the region needs of a world: :meth:`slam_env.world.World.range_scan`."""
+    """What the region needs of a world: :meth:`slam_env.world.pymunk_world.World.range_scan`."""
 
     def range_scan(
         self, x: float, y: float, theta: float, angles: tuple[float, ...], max_range: float

@@ -12,11 +12,11 @@ import numpy as np
 from slam_env.belief import BeliefGeometry, EgocentricEncoding, FullEncoding
 from slam_env.belief_entropy import ENTROPY_FLOOR, BeliefEntropy, landmark_prior_variance
 from slam_env.ekf import CORRECTED, CORRECTION_MODES, EKFSLAM, REJECTED, chi2_gate
-from slam_env.env import unpack_detections
 from slam_env.kernels.belief.belief_state import SINGLE, BeliefBatch, filter_belief
 from slam_env.kernels.belief.diagnostics import DIAGNOSTICS, belief_diagnostics
 from slam_env.kernels.belief.reward import RewardSignals, active_slam_reward
 from slam_env.overlay import BeliefOverlay
+from slam_env.sensing.raw_observation import unpack_detections
 
 __all__ = [
     "DEFAULT_GATE",

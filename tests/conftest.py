@@ -6,7 +6,7 @@ import os
 
 import pytest
 
-from slam_env.layouts import Layout
+from slam_env.world.layouts import Layout
 
 # Rendering tests run headless.
 os.environ.setdefault("SDL_VIDEODRIVER", "dummy")

@@ -3,7 +3,7 @@ two landmarks in a 10 m square arena."""
 
 from __future__ import annotations
 
-from slam_env.layouts import Layout
+from slam_env.world.layouts import Layout
 
 R = 0.25  # m, robot radius used throughout
 SQUARE = ((4.0, 4.0), (6.0, 4.0), (6.0, 6.0), (4.0, 6.0))

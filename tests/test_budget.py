@@ -18,7 +18,7 @@ import pytest
 from slam_env import budget
 from slam_env.budget import check_budget, memory_bytes, world_size
 from slam_env.config import WorldConfig, make_config
-from slam_env.layout_generators import landmark_capacity
+from slam_env.world.layout_generators import landmark_capacity
 
 RAW, ACTIVE = "slam_env/Landmarks-v0", "slam_env/ActiveSLAM-v0"
 README = Path(__file__).resolve().parents[1] / "README.md"
@@ -93,9 +93,9 @@ def nothing_is_built(monkeypatch):
     # Every module that binds these names is imported before they are patched: one first
     # imported under the patches would keep a fake after them (and fail later tests).
     importlib.import_module("slam_env.vector")  # the envs and both cores
-    monkeypatch.setattr("slam_env.world_batch.layout_for", forbidden)
-    monkeypatch.setattr("slam_env.world_batch.World", forbidden)
-    monkeypatch.setattr("slam_env.layouts.Layout.validate", forbidden)
+    monkeypatch.setattr("slam_env.world.world_batch.layout_for", forbidden)
+    monkeypatch.setattr("slam_env.world.world_batch.World", forbidden)
+    monkeypatch.setattr("slam_env.world.layouts.Layout.validate", forbidden)
     monkeypatch.setattr("slam_env.wrappers.EKFSLAM", forbidden)
     monkeypatch.setattr("slam_env.coverage.CoverageGrid", forbidden)
     # ActiveSLAM-v0 builds its grid under the name it imported.

@@ -13,7 +13,7 @@ import pytest
 from gymnasium.utils.env_checker import check_env as gym_check_env
 from stable_baselines3.common.env_checker import check_env as sb3_check_env
 
-from slam_env.env import unpack_detections
+from slam_env.sensing.raw_observation import unpack_detections
 from tests.streams import digest, pickled_twin_digests, rollout_digest
 
 ENV_ID = "slam_env/Landmarks-v0"

@@ -9,7 +9,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from slam_env.geometry import (
+from slam_env.world.frames import (
     MIN_ODOMETRY_TRANSLATION,
     odometry_from_poses,
     robot_to_world,

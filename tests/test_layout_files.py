@@ -11,8 +11,8 @@ import yaml
 
 import slam_env  # noqa: F401  (registers the env IDs)
 from slam_env.config import WorldConfig
-from slam_env.layout_files import layout_from_dict, layout_to_dict, load_layout
-from slam_env.layout_generators import random_layout
+from slam_env.world.layout_files import layout_from_dict, layout_to_dict, load_layout
+from slam_env.world.layout_generators import random_layout
 from tests.layout_samples import R, make
 
 

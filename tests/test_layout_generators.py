@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 
 from slam_env.config import EnvConfig, WorldConfig
-from slam_env.layout_files import layout_to_dict
-from slam_env.layout_generators import (
+from slam_env.world.layout_files import layout_to_dict
+from slam_env.world.layout_generators import (
     PASSAGE_MARGIN,
     START_MARGIN,
     _preset_cached,
@@ -20,7 +20,7 @@ from slam_env.layout_generators import (
     preset_layout,
     random_layout,
 )
-from slam_env.layouts import Layout, _polygon_signed_distance
+from slam_env.world.layouts import Layout, _polygon_signed_distance
 from tests.layout_samples import R, make
 
 # ----------------------------------------------------------------------------- random

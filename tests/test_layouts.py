@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from slam_env.layouts import (
+from slam_env.world.layouts import (
     LANDMARK_POST_RADIUS,
     _polygon_problem,
     _polygon_signed_distance,

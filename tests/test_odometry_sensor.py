@@ -1,4 +1,4 @@
-"""Tests for slam_env.sensors.OdometrySensor: the true control recovers the driven
+"""Tests for slam_env.sensing.landmark_sensor.OdometrySensor: the true control recovers the driven
 path, the noise against the α-model (odometry) and σu (velocity) with the statistics
 of tests/sensor_references.py, wrapping, determinism, and the draws bit for bit."""
 
@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 
 from slam_env.config import OdometryConfig, SensorConfig
-from slam_env.geometry import wrap_angle
-from slam_env.sensors import OdometrySensor
+from slam_env.sensing.odometry_sensor import OdometrySensor
+from slam_env.world.frames import wrap_angle
 from tests.sensor_references import assert_gaussian_errors, box_muller, ref_wrap
 
 PI = math.pi

@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 
 from slam_env.config import EnvConfig, WorldConfig
-from slam_env.layout_generators import preset_layout
 from slam_env.raw_core import RawCore
+from slam_env.world.layout_generators import preset_layout
 
 
 def _episode(core: RawCore, seed: int, steps: int) -> list[bytes]:

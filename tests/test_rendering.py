@@ -14,9 +14,9 @@ os.environ.setdefault("SDL_AUDIODRIVER", "dummy")
 import numpy as np
 import pytest
 
-from slam_env.layouts import Layout
 from slam_env.overlay import CHI2_2DOF_95, chi2_radius2, ellipses_points
 from slam_env.rendering import COLORS, BeliefOverlay, Frame, Renderer, ellipse_points
+from slam_env.world.layouts import Layout
 
 FOV = 2.0 * math.pi / 3.0
 

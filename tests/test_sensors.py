@@ -1,4 +1,4 @@
-"""Tests for slam_env.sensors.LandmarkSensor: visibility, wrapping, exactness, noise
+"""Tests for slam_env.sensing.landmark_sensor.LandmarkSensor: visibility, wrapping, exactness, noise
 statistics (tests/sensor_references.py), detection probability and cap, determinism,
 and the draws bit for bit. The odometry sensor's are in tests/test_odometry_sensor.py.
 """
@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 
 from slam_env.config import OdometryConfig, SensorConfig
-from slam_env.geometry import wrap_angle
-from slam_env.sensors import Detections, LandmarkSensor
+from slam_env.sensing.landmark_sensor import Detections, LandmarkSensor
+from slam_env.world.frames import wrap_angle
 from tests.sensor_references import N_SE, assert_gaussian_errors, box_muller, ref_wrap
 
 PI = math.pi

@@ -12,7 +12,7 @@ import pytest
 from gymnasium.error import ResetNeeded
 
 import slam_env  # noqa: F401  (registers the env IDs)
-from slam_env.env import unpack_detections
+from slam_env.sensing.raw_observation import unpack_detections
 from tests.streams import digest
 
 ENV_ID = "slam_env/Landmarks-v0"

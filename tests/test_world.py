@@ -15,9 +15,14 @@ import numpy as np
 import pytest
 
 from slam_env.config import RobotConfig, WorldConfig
-from slam_env.layout_generators import preset_layout, random_layout
-from slam_env.layouts import Layout, _polygon_signed_distance, segment_distance
-from slam_env.world import _MOTION_FILTER, CONTACT_BISECTIONS, LANDMARK_POST_RADIUS, World
+from slam_env.world.layout_generators import preset_layout, random_layout
+from slam_env.world.layouts import Layout, _polygon_signed_distance, segment_distance
+from slam_env.world.pymunk_world import (
+    _MOTION_FILTER,
+    CONTACT_BISECTIONS,
+    LANDMARK_POST_RADIUS,
+    World,
+)
 from tests.world_samples import (
     DT,
     ROBOT,
@@ -310,8 +315,8 @@ _SCRIPT = textwrap.dedent(
     """
     import numpy as np
     from slam_env.config import RobotConfig, WorldConfig
-    from slam_env.layout_generators import preset_layout
-    from slam_env.world import World
+    from slam_env.world.layout_generators import preset_layout
+    from slam_env.world.pymunk_world import World
     w = World(preset_layout("cluttered", WorldConfig()), RobotConfig(), 0.2, 4)
     rng = np.random.default_rng(3)
     for i in range(200):

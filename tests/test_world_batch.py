@@ -11,9 +11,9 @@ import numpy as np
 import pytest
 
 from slam_env.config import EnvConfig, WorldConfig
-from slam_env.faults import kidnap_pose
-from slam_env.world import World
-from slam_env.world_batch import WorldBatch
+from slam_env.world.kidnap import kidnap_pose
+from slam_env.world.pymunk_world import World
+from slam_env.world.world_batch import WorldBatch
 from tests.world_samples import CountingSpace
 
 B = 6

@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 from slam_env.config import WorldConfig
-from slam_env.layout_generators import preset_layout
-from slam_env.world import _MOTION_FILTER, World
+from slam_env.world.layout_generators import preset_layout
+from slam_env.world.pymunk_world import _MOTION_FILTER, World
 from tests.world_samples import DT, ROBOT, SUBSTEPS, T, arena, pymunk_sees, world
 
 

@@ -15,8 +15,8 @@ import slam_env
 from slam_env import metrics
 from slam_env.belief import slot_indices, unpack_full_belief
 from slam_env.ekf import EKFSLAM
-from slam_env.env import unpack_detections
 from slam_env.metrics import nees_band
+from slam_env.sensing.raw_observation import unpack_detections
 from slam_env.wrappers import DEFAULT_GATE, EKFSLAMWrapper
 from tests.streams import pickled_twin_digests
 

@@ -6,8 +6,8 @@ from __future__ import annotations
 import pymunk
 
 from slam_env.config import RobotConfig
-from slam_env.layouts import Layout
-from slam_env.world import _ALL, CAT_ROBOT, World
+from slam_env.world.layouts import Layout
+from slam_env.world.pymunk_world import _ALL, CAT_ROBOT, World
 
 ROBOT = RobotConfig()  # radius 0.25 m, max speed 1 m/s
 R = ROBOT.radius

@@ -22,7 +22,7 @@ from slam_env.ekf.models import (
     odometry_action_cov,
     velocity_control_cov,
 )
-from slam_env.geometry import wrap_angle
+from slam_env.world.frames import wrap_angle
 
 RUNS, STEPS = 50, 100
 ALPHAS = (0.002, 0.001, 0.002, 0.001)

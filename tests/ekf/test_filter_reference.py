@@ -14,8 +14,8 @@ import pytest
 
 from slam_env.ekf import EKFSLAM, chi2_gate, kernel_config
 from slam_env.ekf.models import MEASUREMENT_MODELS, MOTION_MODELS
-from slam_env.geometry import wrap_angle
 from slam_env.kernels.ekf import filter as ekf
+from slam_env.world.frames import wrap_angle
 
 ALPHAS = (0.02, 0.01, 0.02, 0.01)
 CONTROL_NOISE = (0.02, 0.01, 0.01, 0.05)

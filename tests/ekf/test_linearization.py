@@ -18,7 +18,7 @@ from slam_env.ekf.models import (
     odometry_action_cov,
     velocity_control_cov,
 )
-from slam_env.geometry import wrap_angle
+from slam_env.world.frames import wrap_angle
 from tests.ekf.test_filter_reference import ALPHAS, COMBOS, CONTROL_NOISE, Q, run_against_dense
 
 STEP = 1e-6  # central differences: error O(STEP²) on smooth models

@@ -10,7 +10,7 @@ import pytest
 
 from slam_env.ekf import models
 from slam_env.ekf.models import MEASUREMENT_MODELS, MOTION_MODELS
-from slam_env.geometry import wrap_angle
+from slam_env.world.frames import wrap_angle
 
 EPS = 1e-6
 TOL = 1e-6

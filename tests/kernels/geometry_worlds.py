@@ -9,8 +9,8 @@ import math
 import numpy as np
 
 from slam_env.config import RobotConfig, WorldConfig
-from slam_env.layout_generators import preset_layout, random_layout
-from slam_env.layouts import Layout
+from slam_env.world.layout_generators import preset_layout, random_layout
+from slam_env.world.layouts import Layout
 
 ROBOT_RADIUS = RobotConfig().radius
 WALL = WorldConfig().wall_thickness

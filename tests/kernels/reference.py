@@ -11,7 +11,7 @@ import numpy as np
 
 from slam_env import metrics
 from slam_env.belief import EgocentricEncoding, FullEncoding, slot_indices
-from slam_env.geometry import wrap_angle
+from slam_env.world.frames import wrap_angle
 
 TWO_PI = 2.0 * math.pi
 

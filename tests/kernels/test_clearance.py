@@ -11,8 +11,8 @@ from slam_env.config import RobotConfig
 from slam_env.kernels.world.clearance import clearance, clearance_among
 from slam_env.kernels.world.raycast import all_leaves, near_leaves
 from slam_env.kernels.world.static_geometry import empty_geometry
-from slam_env.static_shapes import set_world, static_shapes
-from slam_env.world import _MOTION_FILTER, World
+from slam_env.world.pymunk_world import _MOTION_FILTER, World
+from slam_env.world.static_shapes import set_world, static_shapes
 from tests.kernels.geometry_worlds import WALL, world_layouts
 
 LAYOUTS = world_layouts()

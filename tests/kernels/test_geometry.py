@@ -18,9 +18,9 @@ from slam_env.kernels.world.static_geometry import (
     StaticGeometry,
     empty_geometry,
 )
-from slam_env.layouts import LANDMARK_POST_RADIUS, Layout
-from slam_env.static_shapes import set_world, static_shapes
-from slam_env.world import World
+from slam_env.world.layouts import LANDMARK_POST_RADIUS, Layout
+from slam_env.world.pymunk_world import World
+from slam_env.world.static_shapes import set_world, static_shapes
 from tests.kernels.geometry_worlds import WALL, slanted_layout, world_layouts
 
 

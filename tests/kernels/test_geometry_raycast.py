@@ -28,9 +28,9 @@ from slam_env.kernels.world.raycast import (
 )
 from slam_env.kernels.world.shape_queries import shape_alpha
 from slam_env.kernels.world.static_geometry import StaticGeometry, empty_geometry
-from slam_env.layouts import Layout
-from slam_env.static_shapes import set_world, static_shapes
-from slam_env.world import _MOTION_FILTER, CAT_ROBOT, World
+from slam_env.world.layouts import Layout
+from slam_env.world.pymunk_world import _MOTION_FILTER, CAT_ROBOT, World
+from slam_env.world.static_shapes import set_world, static_shapes
 from tests.kernels.geometry_worlds import WALL, slanted_layout, world_layouts
 
 LAYOUTS = world_layouts()

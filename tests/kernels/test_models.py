@@ -8,8 +8,8 @@ import math
 import numpy as np
 import pytest
 
-from slam_env.geometry import wrap_float
 from slam_env.kernels.base import models as km
+from slam_env.world.frames import wrap_float
 
 
 def test_wrap_angle_is_the_geometry_helper_bit_for_bit():

@@ -16,8 +16,8 @@ from slam_env.kernels.world.motion import (
     wrap_heading,
 )
 from slam_env.kernels.world.static_geometry import empty_geometry
-from slam_env.layouts import LANDMARK_POST_RADIUS, Layout
-from slam_env.static_shapes import set_world
+from slam_env.world.layouts import LANDMARK_POST_RADIUS, Layout
+from slam_env.world.static_shapes import set_world
 from tests.kernels.geometry_worlds import WALL, world_layouts
 
 RADIUS, DT, SUBSTEPS = 0.25, 0.2, 4

@@ -15,8 +15,8 @@ from slam_env.kernels.stream.sensing import (
     sensing_scratch,
 )
 from slam_env.kernels.world.raycast import line_of_sight
-from slam_env.sensors import LandmarkSensor
-from slam_env.world_batch import WorldBatch
+from slam_env.sensing.landmark_sensor import LandmarkSensor
+from slam_env.world.world_batch import WorldBatch
 
 
 def _batch(seed: int, b: int, **world: object) -> WorldBatch:

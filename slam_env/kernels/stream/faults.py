@@ -1,4 +1,4 @@
-"""Injected faults of B worlds (see :mod:`slam_env.faults` for what each one models).
+"""Injected faults of B worlds (see :mod:`slam_env.world.kidnap` for what each one models).
 
 Each step reads :data:`FAULT_UNIFORMS` uniforms per world whatever happens, in this
 order: scan dropout, outlier event, outlier choice, outlier range, outlier bearing,

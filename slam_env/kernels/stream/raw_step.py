@@ -100,7 +100,7 @@ def sense_and_observe(
     """Sense and observe each ``touched`` world.
 
     ``worlds``: ``(poses, landmarks, landmark_ids, id_order)`` of
-    :class:`slam_env.world_batch.WorldBatch`; ``detections``: ``(z, ids, rows, count)``,
+    :class:`slam_env.world.world_batch.WorldBatch`; ``detections``: ``(z, ids, rows, count)``,
     what :func:`~slam_env.kernels.stream.sensing.sense_landmarks` writes; ``faults``: None, or
     the :class:`~slam_env.kernels.stream.faults.FaultParams` fields and the faults' offset in
     ``uniforms``, applied to the scans of the ``stepping`` worlds; ``beams``:

@@ -1,6 +1,6 @@
 """The landmark sensor and the proximity scan of B worlds.
 
-One scan of one world, in this order (see :class:`slam_env.sensors.LandmarkSensor`
+One scan of one world, in this order (see :class:`slam_env.sensing.landmark_sensor.LandmarkSensor`
 for the model):
 
 1. *Range and field of view*, in ascending landmark-ID order: the true range

@@ -12,13 +12,13 @@ static geometry it settles the others too, from the distance to the nearest shap
 that pymunk's ``point_query_nearest`` finds (:mod:`.clearance`, exact to round-off):
 a step whose reach clears every shape moves freely, and the others move along their
 moves, each checked and a blocked one bisected to the contact, as
-:meth:`slam_env.world.World._settle` does with pymunk's queries. Every decision there
+:meth:`slam_env.world.pymunk_world.World._settle` does with pymunk's queries. Every decision there
 is the comparison of a distance with the robot's radius; where the kernel's distance
 lies within :data:`CLEARANCE_SLACK` of it (round-off could tell it apart from
 pymunk's), the robot is flagged with its moves and the caller settles it with
 pymunk's queries. So the positions are pymunk's, bit for bit
 (``tests/test_world_batch.py``), and pymunk is asked about one world-step in tens of
-thousands. A world without the geometry (a standalone :class:`~slam_env.world.World`,
+thousands. A world without the geometry (a standalone :class:`~slam_env.world.pymunk_world.World`,
 the reference) is flagged wherever its disk does not hold its step.
 """
 
@@ -105,7 +105,7 @@ def _settle_moves(
 ) -> tuple[int, float, float]:
     """World b's robot moved from (x, y) along ``moves[:n]``, each move checked and,
     when blocked, bisected down to the contact, as
-    :meth:`slam_env.world.World._settle` does with pymunk's queries: the same
+    :meth:`slam_env.world.pymunk_world.World._settle` does with pymunk's queries: the same
     decisions, so the same arithmetic and the same end. Returns :data:`SETTLED_CLEAR`
     or :data:`SETTLED_BLOCKED` and the end, or :data:`UNDECIDED` (with the start)
     where a decision is too close to call for the kernel's distance. Only the shapes

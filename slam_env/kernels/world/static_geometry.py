@@ -2,7 +2,7 @@
 of :mod:`slam_env.kernels.world.raycast`.
 
 A world's static shapes (:class:`StaticShapes`, listed from a layout by
-:func:`slam_env.static_shapes.static_shapes`, from which the pymunk world builds
+:func:`slam_env.world.static_shapes.static_shapes`, from which the pymunk world builds
 its space too) are four boundary walls just outside the arena and the inner walls, as
 capsules; the convex obstacles, as polygons of radius 0; one post per landmark.
 

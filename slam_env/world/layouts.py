@@ -3,10 +3,10 @@
 A :class:`Layout` is plain data (no pymunk). :meth:`Layout.validate` checks a layout
 against a robot and raises ``ValueError`` naming the first problem found;
 :meth:`Layout.collision_reason` and :meth:`Layout.is_free` say whether a disc fits at a
-point. Layouts are made in :mod:`slam_env.layout_generators` (random worlds drawn from a
-seed, the named presets, and :func:`~slam_env.layout_generators.layout_for`, which picks
+point. Layouts are made in :mod:`slam_env.world.layout_generators` (random worlds drawn from a
+seed, the named presets, and :func:`~slam_env.world.layout_generators.layout_for`, which picks
 the world of an :class:`~slam_env.config.EnvConfig`) and read and written in
-:mod:`slam_env.layout_files` (the dict schema, JSON/YAML files).
+:mod:`slam_env.world.layout_files` (the dict schema, JSON/YAML files).
 
 Geometry conventions: the arena is [0, width] × [0, height] and its boundary walls
 lie outside it (their inner face is the arena edge). Inner walls are segments of

@@ -4,7 +4,7 @@ circular unicycle robot.
 The robot is driven kinematically as a unicycle for ``dt`` seconds over ``substeps``
 sub-steps (each: move v·h along the chord of the arc, i.e. at the sub-step's mean
 heading, and turn by ω·h; :mod:`slam_env.kernels.world.motion` holds that arithmetic, for a
-batch of one here and of B in :class:`~slam_env.world_batch.WorldBatch`). Before each
+batch of one here and of B in :class:`~slam_env.world.world_batch.WorldBatch`). Before each
 move a pymunk point query checks that the robot's disc is clear at the destination;
 when it is not, the move is bisected down to the contact, so a collision *stops* the
 translation while the rotation goes on: the robot behaves like a bumper-equipped
@@ -21,7 +21,7 @@ of it, which settles blocked moves and bisection midpoints the same way (see
 queries. The compiled kernel settles every step that needs no query (turning in
 place, or the whole step inside the disk an earlier query found clear); only the
 others come back to Python and pymunk (:meth:`World._settle`). A
-:class:`~slam_env.world_batch.WorldBatch` also hands the kernel its worlds' static
+:class:`~slam_env.world.world_batch.WorldBatch` also hands the kernel its worlds' static
 geometry, from which it settles the steps itself, contacts included, making the
 decisions these queries make from the distance a query would find
 (:mod:`slam_env.kernels.world.clearance`), and leaves to pymunk only a distance within
@@ -34,7 +34,7 @@ also in arrays (:mod:`slam_env.kernels.world.static_geometry`, a batch of one wo
 compiled segment queries of line of sight and the proximity scan
 (:mod:`slam_env.kernels.world.raycast`), which answer exactly as pymunk's own segment queries
 would. The robot's pose is a row of floats (the world's own, or its
-:class:`~slam_env.world_batch.WorldBatch`'s), mirrored into its body when the space is
+:class:`~slam_env.world.world_batch.WorldBatch`'s), mirrored into its body when the space is
 read, so a pickled world resumes bit-identically.
 """
 
@@ -48,7 +48,6 @@ import numpy as np
 import pymunk
 
 from slam_env.config import RobotConfig
-from slam_env.drive import Drive
 from slam_env.kernels.world import raycast
 from slam_env.kernels.world.motion import (
     CLEARANCE_SLACK,
@@ -57,8 +56,9 @@ from slam_env.kernels.world.motion import (
     wrap_heading,
 )
 from slam_env.kernels.world.static_geometry import StaticGeometry, StaticShapes, empty_geometry
-from slam_env.layouts import LANDMARK_POST_RADIUS, Layout
-from slam_env.static_shapes import set_world, static_shapes
+from slam_env.world.drive import Drive
+from slam_env.world.layouts import LANDMARK_POST_RADIUS, Layout
+from slam_env.world.static_shapes import set_world, static_shapes
 
 __all__ = ["LANDMARK_POST_RADIUS", "MAX_MOVE_FRACTION", "World"]
 
@@ -75,7 +75,7 @@ CLEARANCE_LOOKAHEAD = 0.5
 
 
 class World:
-    """A pymunk world built from a :class:`~slam_env.layouts.Layout`.
+    """A pymunk world built from a :class:`~slam_env.world.layouts.Layout`.
 
     Args:
         layout: the world; validated for the robot (``ValueError`` if invalid).
@@ -85,7 +85,7 @@ class World:
         wall_thickness: half-thickness (segment radius) of boundary and inner walls, m.
             The boundary walls lie outside the arena: their inner face is its edge.
         validated: True when ``layout`` was already validated for this robot's radius
-            and this wall thickness (:func:`~slam_env.layout_generators.layout_for` does
+            and this wall thickness (:func:`~slam_env.world.layout_generators.layout_for` does
             it), to skip checking it again (about half a millisecond per world).
 
     Shapes: walls are static segments, obstacles static convex polygons, each landmark

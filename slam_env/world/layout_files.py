@@ -9,7 +9,7 @@ the dict schema (JSON/YAML)::
      "walls": [[x0, y0, x1, y1], ...],
      "start": [x, y, theta]}
 
-The geometry conventions are those of :class:`~slam_env.layouts.Layout`.
+The geometry conventions are those of :class:`~slam_env.world.layouts.Layout`.
 """
 
 from __future__ import annotations
@@ -20,7 +20,7 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-from slam_env.layouts import (
+from slam_env.world.layouts import (
     Layout,
     Point,
     as_float,

@@ -7,17 +7,17 @@ from typing import Any
 import numpy as np
 
 from slam_env.config import EnvConfig
-from slam_env.drive import Drive
-from slam_env.faults import kidnap_pose
 from slam_env.kernels.world.static_geometry import StaticGeometry, empty_geometry
-from slam_env.layout_generators import layout_for
-from slam_env.layouts import Layout
-from slam_env.static_shapes import set_world
-from slam_env.world import World
+from slam_env.world.drive import Drive
+from slam_env.world.kidnap import kidnap_pose
+from slam_env.world.layout_generators import layout_for
+from slam_env.world.layouts import Layout
+from slam_env.world.pymunk_world import World
+from slam_env.world.static_shapes import set_world
 
 
 class WorldBatch:
-    """The worlds of B sub-envs: a :class:`~slam_env.world.World` each (pymunk answers
+    """The worlds of B sub-envs: a :class:`~slam_env.world.pymunk_world.World` each (pymunk answers
     the clearance queries of the motion the kernel leaves to it) and, for the kernels,
     the true poses (B, 3) and the clear disks (B, 3) (each world's pose and disk are
     its row of these), the landmarks (B, N, 2) with their IDs (B, N) and ID order
@@ -26,7 +26,7 @@ class WorldBatch:
 
     A fixed world (a preset or a user layout) is built once and shared by every
     sub-env; with ``preset="random"`` each reset draws a new world from the sub-env's
-    generator. Each sub-env keeps one :class:`~slam_env.world.World`, relaid at its
+    generator. Each sub-env keeps one :class:`~slam_env.world.pymunk_world.World`, relaid at its
     resets (:meth:`World.relayout`: the same object, the new episode's world).
     """
 

@@ -2,7 +2,7 @@
 
 - :func:`random_layout` draws a world from a ``numpy.random.Generator`` (all its
   randomness), :func:`preset_layout` builds a named fixed map, :func:`layout_for`
-  picks one of those (or a user world, :func:`~slam_env.layout_files.load_layout`) for an
+  picks one of those (or a user world, :func:`~slam_env.world.layout_files.load_layout`) for an
   :class:`~slam_env.config.EnvConfig`.
 - :func:`landmark_spacing` and :func:`landmark_capacity` say how far apart, and how
   many, the landmarks of a generated world can be.
@@ -18,8 +18,8 @@ from typing import Any
 import numpy as np
 
 from slam_env.config import PRESETS, EnvConfig, RobotConfig, WorldConfig
-from slam_env.layout_files import load_layout
-from slam_env.layouts import (
+from slam_env.world.layout_files import load_layout
+from slam_env.world.layouts import (
     LANDMARK_POST_RADIUS,
     Layout,
     Point,

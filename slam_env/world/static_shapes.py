@@ -9,7 +9,7 @@ import math
 import numpy as np
 
 from slam_env.kernels.world.static_geometry import StaticGeometry, StaticShapes, set_shapes
-from slam_env.layouts import LANDMARK_POST_RADIUS, Layout
+from slam_env.world.layouts import LANDMARK_POST_RADIUS, Layout
 
 __all__ = ["set_world", "static_shapes"]
 

@@ -1,7 +1,7 @@
 """The compiled motion of B robots of one size: the buffers of
 :func:`slam_env.kernels.world.motion.drive` and its call, shared by a
-:class:`~slam_env.world.World` (a batch of one) and a
-:class:`~slam_env.world_batch.WorldBatch`."""
+:class:`~slam_env.world.pymunk_world.World` (a batch of one) and a
+:class:`~slam_env.world.world_batch.WorldBatch`."""
 
 from __future__ import annotations
 
