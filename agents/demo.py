@@ -4,7 +4,7 @@
 
 * ``demo.gif``: the episode as rendered by the env (``rgb_array``): the true and
   estimated paths, the sensor's visible region, the belief with 95% ellipses, the step,
-  the live entropy, map RMSE and NEES, and a legend (see :mod:`slam_env.rendering`),
+  the live entropy, map RMSE and NEES, and a legend (see :mod:`slam_env.render.renderer`),
   subsampled to at most ``gif_max_frames`` frames so that the file stays a few MB;
 * ``final_map.png``: the world, the true and estimated trajectories, the detections
   and the final belief with 95% ellipses;
@@ -136,8 +136,8 @@ def demo(
     finally:
         env.close()
 
-    from slam_env.metrics import share_in_nees_band
-    from slam_env.plotting import plot_consistency, plot_episode
+    from slam_env.belief.metrics import share_in_nees_band
+    from slam_env.render.plots import plot_consistency, plot_episode
 
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)

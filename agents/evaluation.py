@@ -24,7 +24,7 @@ metric is undefined (``map_rmse`` with nothing mapped) are left out of its mean,
 ``<metric>_n`` says how many counted. It also holds ``nees_in_band``: the share of
 steps at which the pose NEES averaged over the agent's episodes lies inside its 95% χ²
 band for that many episodes (about 0.95 for a consistent filter; see
-:func:`slam_env.metrics.share_in_nees_band`). ``steps.csv.gz`` holds every step (belief
+:func:`slam_env.belief.metrics.share_in_nees_band`). ``steps.csv.gz`` holds every step (belief
 entropy, landmarks known, errors, NEES, collision, true and estimated pose);
 ``results.json`` holds the summary and episode tables and the settings;
 ``trajectories.png`` shows each agent's trajectory and final belief (95% ellipses) in
@@ -53,8 +53,8 @@ from scipy.stats import t as student_t
 from agents.arguments import check_count
 from agents.base import Agent
 from agents.registry import agent_label, make_agent, make_env
+from slam_env.belief.metrics import share_in_nees_band
 from slam_env.budget import MAX_MEMORY_BYTES
-from slam_env.metrics import share_in_nees_band
 from slam_env.registration import DEFAULT_MAX_EPISODE_STEPS
 
 #: Per-episode metrics, in table order, with their descriptions.
@@ -119,7 +119,7 @@ class EpisodeRecord:
     collision: np.ndarray  # (T+1,) bool
     rewards: np.ndarray  # (T,)
     layout: Any = None  # slam_env.world.layouts.Layout of the episode
-    belief: Any = None  # final slam_env.overlay.BeliefOverlay
+    belief: Any = None  # final slam_env.belief.overlay.BeliefOverlay
     world: str = ""  # short digest of the world (same worlds ⇔ same digests)
     frames: list[np.ndarray] = field(default_factory=list)
     detections_world: list[np.ndarray] = field(default_factory=list)
@@ -423,12 +423,16 @@ def print_summary(result: EvaluationResult, console: Any = None) -> None:
 
 def consistency_series(records: Sequence[EpisodeRecord]) -> dict[str, list[np.ndarray]]:
     """The per-step pose NEES and map RMSE of episodes, as
-    :func:`slam_env.plotting.plot_consistency` takes them."""
+    :func:`slam_env.render.plots.plot_consistency` takes them."""
     return {"pose_nees": [r.pose_nees for r in records], "map_rmse": [r.map_rmse for r in records]}
 
 
 def _plot(records: dict[str, list[EpisodeRecord]], plot_index: int, out: Path) -> dict[str, Path]:
-    from slam_env.plotting import plot_consistency, plot_metrics_over_time, plot_trajectories_grid
+    from slam_env.render.plots import (
+        plot_consistency,
+        plot_metrics_over_time,
+        plot_trajectories_grid,
+    )
 
     files: dict[str, Path] = {}
     per_agent = {}

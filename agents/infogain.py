@@ -14,9 +14,9 @@ from agents.grid_search import dijkstra, nearest_passable
 from agents.heuristic import HeuristicAgent, HeuristicParams
 from agents.path_control import PathFollower
 from agents.sensor_sweep import box_sum
+from slam_env.belief.entropy import ENTROPY_FLOOR, landmark_prior_variance
 from slam_env.ekf.models import MEASUREMENT_MODELS
 from slam_env.world.frames import odometry_from_poses, velocity_from_poses, wrap_angle
-from slam_env.wrappers import ENTROPY_FLOOR, landmark_prior_variance
 
 #: (speed, turn) fractions of the default motion primitives: straight, gentle and
 #: tighter arcs each way, slow turns and turns on the spot. Turn rates stay at or below

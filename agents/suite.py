@@ -388,7 +388,7 @@ def _head_to_head(by_setting: dict[str, list[dict[str, Any]]], labels: Sequence[
 
 
 def _plot(rows: Sequence[dict[str, Any]], out: Path) -> dict[str, Path]:
-    from slam_env.plotting import plot_grouped_bars
+    from slam_env.render.plots import plot_grouped_bars
 
     files = {}
     for name, title in (

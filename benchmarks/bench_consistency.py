@@ -42,7 +42,7 @@ is the map error it can hope for.
 The table:
 
 * ``in band``: the share of steps 1..T whose pose NEES averaged over the runs lies in
-  the two-sided 95% χ² band (3·runs dof, divided by runs; slam_env.metrics);
+  the two-sided 95% χ² band (3·runs dof, divided by runs; slam_env.belief.metrics);
 * ``mean NEES``: the pose NEES averaged over runs and steps (3 for a consistent filter);
 * ``EKF RMSE``: the final map RMSE (m) over the landmarks in the filter's map, mean over
   runs; ``LS RMSE``: the smoother's on the same runs; ``ratio``: EKF / LS. A run in
@@ -76,13 +76,12 @@ from agents.arguments import non_negative_int, positive_int
 from agents.grid_map import GridMap
 from agents.grid_search import astar, nearest_passable
 from agents.path_control import ControllerParams, PathFollower
+from slam_env.belief.metrics import map_rmse, nees, nees_band, pose_error, share_in_nees_band
 from slam_env.config import make_config
-from slam_env.ekf import EKFSLAM, LINEARIZATIONS, UpdateResult
+from slam_env.ekf import DEFAULT_GATE, EKFSLAM, LINEARIZATIONS, UpdateResult
 from slam_env.kernels.ekf.association_score import SCORE_NAMES, score_association
-from slam_env.metrics import map_rmse, nees, nees_band, pose_error, share_in_nees_band
 from slam_env.sensing.raw_observation import unpack_detections
 from slam_env.world.layouts import LANDMARK_POST_RADIUS
-from slam_env.wrappers import DEFAULT_GATE
 
 ENV_ID = "slam_env/Landmarks-v0"
 

@@ -20,8 +20,8 @@ import time
 import numpy as np
 
 from agents.arguments import positive_int
+from slam_env.belief.coverage import CoverageGrid
 from slam_env.config import SensorConfig
-from slam_env.coverage import CoverageGrid
 
 ARENA = 16.0
 

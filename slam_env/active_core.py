@@ -4,9 +4,10 @@ over all of them.
 
 :class:`ActiveCore` is what ``slam_env/ActiveSLAM-v0`` runs as a batch of one and its
 native vector env for B sub-envs. It computes exactly what the composable wrappers
-(:class:`slam_env.wrappers.EKFSLAMWrapper`, :class:`slam_env.coverage.CoverageWrapper`,
-:class:`slam_env.wrappers.ActiveSLAMReward`) compute over a raw env, with the same
-kernels.
+(:class:`slam_env.belief.ekf_wrapper.EKFSLAMWrapper`,
+:class:`slam_env.belief.coverage_wrapper.CoverageWrapper`,
+:class:`slam_env.belief.reward_wrapper.ActiveSLAMReward`) compute over a raw env, with
+the same kernels.
 """
 
 from __future__ import annotations
@@ -19,10 +20,18 @@ import numpy as np
 from gymnasium import spaces
 
 from slam_env.active_options import ActiveSLAMOptions
-from slam_env.belief import BeliefGeometry, EgocentricEncoding, FullEncoding
-from slam_env.belief_entropy import BeliefEntropy
+from slam_env.belief.coverage import CoverageGrid
+from slam_env.belief.encodings import (
+    PASSTHROUGH_KEYS,
+    BeliefGeometry,
+    EgocentricEncoding,
+    FullEncoding,
+)
+from slam_env.belief.entropy import BeliefEntropy
+from slam_env.belief.local_encoding import LocalEncoding
+from slam_env.belief.overlay import BeliefOverlay
+from slam_env.belief.reward import REWARD_TERMS
 from slam_env.config import EnvConfig
-from slam_env.coverage import CoverageGrid
 from slam_env.ekf import EKFSLAM
 from slam_env.ekf.batch import FilterBatch
 from slam_env.kernels.belief.active_step import belief_outputs, filter_step, step_reward
@@ -34,14 +43,11 @@ from slam_env.kernels.belief.diagnostics import (
     POSE_NEES,
     POSE_STD,
 )
-from slam_env.kernels.belief.divergence import diverged
+from slam_env.kernels.belief.divergence import DIVERGENCE_REJECTIONS, diverged
 from slam_env.kernels.ekf.association_score import SCORE_NAMES
-from slam_env.local_observation import LocalEncoding
-from slam_env.overlay import BeliefOverlay
 from slam_env.random_blocks import RandomBlocks
 from slam_env.raw_core import BatchCore, RawCore
 from slam_env.world.layouts import Layout
-from slam_env.wrappers import DIVERGENCE_REJECTIONS, PASSTHROUGH_KEYS, REWARD_TERMS
 
 # Rows of the diagnostics kernel's output, by name.
 _DIAGNOSTIC_ROW = {name: i for i, name in enumerate(DIAGNOSTICS)}

@@ -9,10 +9,11 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field, fields
 from typing import Any
 
+from slam_env.belief.encodings import OBSERVATION_MODES
+from slam_env.belief.reward import ActiveSLAMRewardWeights
 from slam_env.budget import check_budget, world_size
 from slam_env.config import EnvConfig, make_config, plain, with_defaults
-from slam_env.ekf import CORRECTION_MODES, DATA_ASSOCIATIONS, LINEARIZATIONS, checks
-from slam_env.wrappers import DEFAULT_GATE, OBSERVATION_MODES, ActiveSLAMRewardWeights
+from slam_env.ekf import CORRECTION_MODES, DATA_ASSOCIATIONS, DEFAULT_GATE, LINEARIZATIONS, checks
 
 # Proximity beams in the active-SLAM observation, unless the options set them.
 DEFAULT_SCAN_BEAMS = 16
@@ -21,7 +22,7 @@ DEFAULT_SCAN_BEAMS = 16
 # two beams). They apply unless the options set them, flat or nested.
 ACTIVE_SLAM_DEFAULTS = {"scan_beams": DEFAULT_SCAN_BEAMS, "bumper": True}
 # The observations of ActiveSLAM-v0: the belief wrapper's, and "local", which does not
-# depend on the landmark count (slam_env.local_observation; it needs the coverage).
+# depend on the landmark count (slam_env.belief.local_encoding; it needs the coverage).
 ACTIVE_OBSERVATION_MODES = (*OBSERVATION_MODES, "local")
 
 

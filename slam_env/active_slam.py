@@ -17,12 +17,12 @@ import numpy as np
 
 from slam_env.active_core import ActiveCore
 from slam_env.active_options import DEFAULT_SCAN_BEAMS, ActiveSLAMOptions, active_config
+from slam_env.belief.overlay import BeliefOverlay
+from slam_env.belief.reward import ActiveSLAMRewardWeights
 from slam_env.config import check_option_names
-from slam_env.ekf import EKFSLAM
+from slam_env.ekf import DEFAULT_GATE, EKFSLAM
 from slam_env.env import ENV_ARGUMENTS
-from slam_env.overlay import BeliefOverlay
 from slam_env.single_env import CoreEnv
-from slam_env.wrappers import DEFAULT_GATE, ActiveSLAMRewardWeights
 
 __all__ = ["DEFAULT_SCAN_BEAMS", "LIVE_FIGURES", "ActiveSLAMEnv"]
 
@@ -35,13 +35,13 @@ class ActiveSLAMEnv(CoreEnv):
 
     The world, robot, sensors and episode end are those of
     :class:`slam_env.env.LandmarksEnv`; the observation is the belief of
-    :class:`slam_env.wrappers.EKFSLAMWrapper` with the swept-area memory of
-    :class:`slam_env.coverage.CoverageWrapper`, and the reward that of
-    :class:`slam_env.wrappers.ActiveSLAMReward` (terms in ``info["reward_terms"]``).
+    :class:`slam_env.belief.ekf_wrapper.EKFSLAMWrapper` with the swept-area memory of
+    :class:`slam_env.belief.coverage_wrapper.CoverageWrapper`, and the reward that of
+    :class:`slam_env.belief.reward_wrapper.ActiveSLAMReward` (terms in ``info["reward_terms"]``).
 
     ## Arguments
     ``observation`` (``"egocentric"`` | ``"full"`` | ``"local"``: the one whose size does
-    not depend on the world, see :mod:`slam_env.local_observation`; it needs the
+    not depend on the world, see :mod:`slam_env.belief.local_encoding`; it needs the
     coverage), ``correction`` (``"sequential"`` |
     ``"batch"``), ``gate`` (χ² threshold or ``None``), ``filter_alphas``,
     ``filter_control_noise``, ``filter_measurement_cov`` (a mismatched filter; default:
@@ -54,7 +54,7 @@ class ActiveSLAMEnv(CoreEnv):
     (``"standard"`` | ``"fej"`` | ``"oc"``),
     ``reward_weights`` (an :class:`ActiveSLAMRewardWeights` or a dict of its fields),
     ``coverage`` (default ``True``: a
-    :class:`slam_env.coverage.CoverageWrapper` adds the swept-area features, which a
+    :class:`slam_env.belief.coverage_wrapper.CoverageWrapper` adds the swept-area features, which a
     policy needs to know where it has not looked yet); every other option goes to
     :class:`LandmarksEnv`, where ``scan_beams`` defaults to 16 and ``bumper`` to
     ``True`` here: a policy needs to see obstacles, which the landmark map does not
@@ -68,7 +68,7 @@ class ActiveSLAMEnv(CoreEnv):
 
     ## Info
     The raw env's, then the belief's diagnostics (see
-    :class:`slam_env.wrappers.EKFSLAMWrapper`), ``swept_fraction`` and the reward terms.
+    :class:`slam_env.belief.ekf_wrapper.EKFSLAMWrapper`), ``swept_fraction`` and the reward terms.
     Where the filter associates, ``association`` (this step's ``correct``, ``wrong`` and
     ``missed`` associations, and the map's ``duplicated`` landmarks) and
     ``association_episode`` (the same, summed over the episode), judged against the

@@ -66,7 +66,7 @@ BELIEF_DENSE_COPIES = {"egocentric": 4, "full": 9, "local": 4}
 # The coverage grid: per offset of its (2·nx − 1)(2·ny − 1) window, the region codes and
 # their temporaries over 72 heading bins (measured ~1,900 B); per offset in the sensor's
 # footprint, the footprint tables and temporaries; one byte per cell of the padded grid,
-# and each world's class counts (slam_env.coverage_classes).
+# and each world's class counts (slam_env.belief.coverage_classes).
 COVERAGE_BYTES_PER_OFFSET = 2_100
 COVERAGE_BYTES_PER_FOOTPRINT_OFFSET = 2_400
 # Per landmark: pymunk's post and query filter, the sensor's and the world's tables;
@@ -137,7 +137,7 @@ def _refuse(figure: str, value: float, limit: float, reason: str, fix: str) -> N
 
 def _coverage_cell() -> float:
     """The cell (m) of ``CoverageWrapper``'s grid: its default, read, not restated."""
-    from slam_env.coverage import CoverageWrapper
+    from slam_env.belief.coverage_wrapper import CoverageWrapper
 
     return inspect.signature(CoverageWrapper.__init__).parameters["cell"].default
 
@@ -149,7 +149,7 @@ def _arena_cells(world: WorldSize) -> int:
 
 def _coverage_geometry(config: EnvConfig, world: WorldSize) -> tuple[int, int, int]:
     """The coverage grid's window offsets, footprint offsets (an upper bound) and padded
-    cells (see :class:`slam_env.coverage.CoverageGrid`)."""
+    cells (see :class:`slam_env.belief.coverage.CoverageGrid`)."""
     cell = _coverage_cell()
     nx = max(math.ceil(world.width / cell), 1)
     ny = max(math.ceil(world.height / cell), 1)
@@ -162,8 +162,8 @@ def _coverage_geometry(config: EnvConfig, world: WorldSize) -> tuple[int, int, i
 def _coverage_counts_bytes() -> int:
     """The bytes of one world's class counts in ``CoverageWrapper``'s grid (an upper
     bound: a grid that scans instead keeps none)."""
-    from slam_env.coverage import HEADING_BINS, SECTORS, SENSOR_RING_EDGES
-    from slam_env.coverage_classes import class_counts_shape
+    from slam_env.belief.coverage import HEADING_BINS, SECTORS, SENSOR_RING_EDGES
+    from slam_env.belief.coverage_classes import class_counts_shape
 
     return 8 * math.prod(class_counts_shape(HEADING_BINS, SECTORS, len(SENSOR_RING_EDGES) + 1))
 
@@ -434,7 +434,7 @@ def _check_belief_work(config: EnvConfig, world: WorldSize, belief: str) -> None
 
 def _check_observation_bounds(config: EnvConfig, world: WorldSize, belief: str | None) -> None:
     """Every bound of the observation space must be a finite float32."""
-    from slam_env.belief import BeliefGeometry
+    from slam_env.belief.encodings import BeliefGeometry
     from slam_env.sensing.raw_observation import detection_reach, odometry_translation_bound
 
     bounds = {

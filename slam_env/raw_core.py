@@ -316,9 +316,9 @@ class RawCore(BatchCore):
         return arrays
 
     def frame(self, index: int, trail: Any, belief: Any = None) -> Any:
-        """The plain-data :class:`slam_env.rendering.Frame` of sub-env ``index``, with its
+        """The plain-data :class:`slam_env.render.renderer.Frame` of sub-env ``index``, with its
         past positions ``trail`` ((T, 2), m) and a belief overlay to draw, if any."""
-        from slam_env.rendering import Frame
+        from slam_env.render.renderer import Frame
         from slam_env.world.frames import robot_to_world
 
         k = int(self.det_count[index])

@@ -220,9 +220,9 @@ class CoreEnv(gym.Env):
         return None
 
     def render_frame(self):
-        """The plain-data :class:`slam_env.rendering.Frame` of the current state, with
+        """The plain-data :class:`slam_env.render.renderer.Frame` of the current state, with
         the sensor's visible region traced in the world and the step number."""
-        from slam_env.visibility import visible_region
+        from slam_env.render.visibility import visible_region
 
         frame = self._core.frame(0, self._trail, self._overlay())
         sensor = self.config.sensor
@@ -232,7 +232,7 @@ class CoreEnv(gym.Env):
 
     def _get_renderer(self):
         if self._renderer is None:
-            from slam_env.rendering import Renderer
+            from slam_env.render.renderer import Renderer
 
             cfg = self.config
             self._renderer = Renderer(

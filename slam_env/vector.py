@@ -254,7 +254,7 @@ class SlamVectorEnv(VectorEnv):
         return tuple(self._render_one(b) for b in range(self.num_envs))
 
     def _render_one(self, index: int) -> np.ndarray:
-        from slam_env.rendering import Renderer
+        from slam_env.render.renderer import Renderer
 
         if self._renderers[index] is None:
             cfg = self.config

@@ -7,8 +7,8 @@ import math
 import numpy as np
 import pytest
 
-from slam_env import metrics
-from slam_env.belief import (
+from slam_env.belief import metrics
+from slam_env.belief.encodings import (
     BeliefGeometry,
     EgocentricEncoding,
     FullEncoding,

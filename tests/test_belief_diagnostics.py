@@ -9,8 +9,8 @@ import gymnasium as gym
 import numpy as np
 import pytest
 
+from slam_env.belief.ekf_wrapper import EKFSLAMWrapper
 from slam_env.env import LandmarksEnv
-from slam_env.wrappers import EKFSLAMWrapper
 
 ENV_ID = "slam_env/ActiveSLAM-v0"
 

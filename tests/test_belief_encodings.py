@@ -9,7 +9,7 @@ import math
 import numpy as np
 import pytest
 
-from slam_env.belief import (
+from slam_env.belief.encodings import (
     BeliefGeometry,
     EgocentricEncoding,
     FullEncoding,

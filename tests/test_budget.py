@@ -93,11 +93,14 @@ def nothing_is_built(monkeypatch):
     # Every module that binds these names is imported before they are patched: one first
     # imported under the patches would keep a fake after them (and fail later tests).
     importlib.import_module("slam_env.vector")  # the envs and both cores
+    importlib.import_module("slam_env.belief.ekf_wrapper")
+    importlib.import_module("slam_env.belief.coverage_wrapper")
     monkeypatch.setattr("slam_env.world.world_batch.layout_for", forbidden)
     monkeypatch.setattr("slam_env.world.world_batch.World", forbidden)
     monkeypatch.setattr("slam_env.world.layouts.Layout.validate", forbidden)
-    monkeypatch.setattr("slam_env.wrappers.EKFSLAM", forbidden)
-    monkeypatch.setattr("slam_env.coverage.CoverageGrid", forbidden)
+    monkeypatch.setattr("slam_env.belief.ekf_wrapper.EKFSLAM", forbidden)
+    monkeypatch.setattr("slam_env.belief.coverage.CoverageGrid", forbidden)
+    monkeypatch.setattr("slam_env.belief.coverage_wrapper.CoverageGrid", forbidden)
     # ActiveSLAM-v0 builds its grid under the name it imported.
     monkeypatch.setattr("slam_env.active_core.CoverageGrid", forbidden)
 

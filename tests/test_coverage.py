@@ -1,4 +1,4 @@
-"""The swept-area memory (slam_env.coverage) and its place in ActiveSLAM-v0."""
+"""The swept-area memory (slam_env.belief.coverage) and its place in ActiveSLAM-v0."""
 
 from __future__ import annotations
 
@@ -9,9 +9,12 @@ import numpy as np
 import pytest
 
 import slam_env  # noqa: F401
-from slam_env.coverage import CoverageGrid, CoverageWrapper
+from slam_env.belief.coverage import CoverageGrid
+from slam_env.belief.coverage_wrapper import CoverageWrapper
+from slam_env.belief.ekf_wrapper import EKFSLAMWrapper
+from slam_env.belief.reward import ActiveSLAMRewardWeights
+from slam_env.belief.reward_wrapper import ActiveSLAMReward
 from slam_env.env import LandmarksEnv
-from slam_env.wrappers import ActiveSLAMReward, ActiveSLAMRewardWeights, EKFSLAMWrapper
 
 ENV_ID = "slam_env/ActiveSLAM-v0"
 

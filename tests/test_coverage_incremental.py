@@ -12,15 +12,15 @@ import pickle
 import numpy as np
 import pytest
 
-import slam_env.coverage as coverage_module
-from slam_env.config import SensorConfig
-from slam_env.coverage import CoverageGrid
-from slam_env.coverage_classes import (
+import slam_env.belief.coverage as coverage_module
+from slam_env.belief.coverage import CoverageGrid
+from slam_env.belief.coverage_classes import (
     MAX_FINE_BINS,
     fine_bins,
     offset_classes,
     sector_of_fine_bin,
 )
+from slam_env.config import SensorConfig
 
 TWO_PI = 2.0 * math.pi
 

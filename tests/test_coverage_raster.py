@@ -18,9 +18,10 @@ import gymnasium as gym
 import numpy as np
 import pytest
 
-from slam_env.coverage import CoverageGrid, CoverageWrapper
+from slam_env.belief.coverage import CoverageGrid
+from slam_env.belief.coverage_wrapper import CoverageWrapper
+from slam_env.belief.ekf_wrapper import EKFSLAMWrapper
 from slam_env.env import LandmarksEnv
-from slam_env.wrappers import EKFSLAMWrapper
 
 TWO_PI = 2.0 * math.pi
 TIE = 1e-9  # rad or m: closer than this to an edge, the reference cannot tell the side

@@ -14,8 +14,9 @@ import gymnasium as gym
 import numpy as np
 import pytest
 
+from slam_env.belief.ekf_wrapper import EKFSLAMWrapper
 from slam_env.env import LandmarksEnv
-from slam_env.wrappers import DIVERGENCE_REJECTIONS, EKFSLAMWrapper
+from slam_env.kernels.belief.divergence import DIVERGENCE_REJECTIONS
 
 LAYOUT = {
     "width": 10.0,

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import slam_env  # noqa: F401
-from slam_env.metrics import nees_band
+from slam_env.belief.metrics import nees_band
 from slam_env.sensing.raw_observation import unpack_detections
 from tests.streams import rollout_digest
 from tests.test_wrappers import _smooth_actions

@@ -12,9 +12,8 @@ import numpy as np
 import pytest
 
 from benchmarks.ideal_ekf import IdealEKF
-from slam_env.ekf import CORRECTED, EKFSLAM, INITIALISED, REJECTED
+from slam_env.ekf import CORRECTED, DEFAULT_GATE, EKFSLAM, INITIALISED, REJECTED
 from slam_env.ekf.models import MEASUREMENT_MODELS, MOTION_MODELS
-from slam_env.wrappers import DEFAULT_GATE
 from tests.ekf.test_filter_reference import assert_same_belief
 from tests.test_smoother import ALPHAS, LANDMARKS, VELOCITY_NOISE, Q, synthetic_episode
 

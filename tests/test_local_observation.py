@@ -10,17 +10,17 @@ import numpy as np
 import pytest
 
 import slam_env  # noqa: F401  (registers the env IDs)
-from slam_env.belief import BeliefGeometry
-from slam_env.config import SensorConfig
-from slam_env.coverage import CoverageGrid
-from slam_env.kernels.belief.local_map import MAP_CHANNELS, SUBSAMPLES, mark_scan_hits
-from slam_env.local_observation import (
+from slam_env.belief.coverage import CoverageGrid
+from slam_env.belief.encodings import BeliefGeometry
+from slam_env.belief.local_encoding import (
     MAP_CELL,
     MAP_SIDE,
     NEAREST_LANDMARKS,
     LocalEncoding,
     local_space,
 )
+from slam_env.config import SensorConfig
+from slam_env.kernels.belief.local_map import MAP_CHANNELS, SUBSAMPLES, mark_scan_hits
 
 ACTIVE = "slam_env/ActiveSLAM-v0"
 

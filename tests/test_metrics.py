@@ -1,4 +1,4 @@
-"""slam_env.metrics against independent computations (issue 17): the same numbers
+"""slam_env.belief.metrics against independent computations (issue 17): the same numbers
 from numpy's solvers and determinants, or from their definitions by hand."""
 
 from __future__ import annotations
@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from slam_env import metrics
+from slam_env.belief import metrics
 
 
 def _spd(rng: np.random.Generator, d: int) -> np.ndarray:

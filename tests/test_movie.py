@@ -11,9 +11,9 @@ import pytest
 from matplotlib.colors import to_hex
 
 import slam_env  # noqa: F401  (registers the env IDs)
-from slam_env.overlay import ELLIPSE_FILL_ALPHA, LEGEND_LABELS, BeliefOverlay
-from slam_env.plotting import plot_episode
-from slam_env.rendering import COLORS, Frame, Renderer
+from slam_env.belief.overlay import ELLIPSE_FILL_ALPHA, LEGEND_LABELS, BeliefOverlay
+from slam_env.render.plots import plot_episode
+from slam_env.render.renderer import COLORS, Frame, Renderer
 
 FOV = 2.0 * math.pi / 3.0
 

@@ -8,8 +8,8 @@ import math
 import numpy as np
 import pytest
 
-from slam_env.metrics import averaged_nees, nees_band, nees_bands, share_in_nees_band
-from slam_env.plotting import plot_consistency
+from slam_env.belief.metrics import averaged_nees, nees_band, nees_bands, share_in_nees_band
+from slam_env.render.plots import plot_consistency
 
 # χ²(k) quantiles at 0.025 and 0.975 (published tables, 6 decimals).
 CHI2_95 = {

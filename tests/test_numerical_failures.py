@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 
 import slam_env  # noqa: F401  (registers the env IDs)
+from slam_env.belief.ekf_wrapper import EKFSLAMWrapper
 from slam_env.env import LandmarksEnv
 from slam_env.kernels.ekf import codes as ekf_codes
-from slam_env.wrappers import EKFSLAMWrapper
 
 ACTIVE = "slam_env/ActiveSLAM-v0"
 FORWARD = np.array([0.8, 0.2], dtype=np.float32)

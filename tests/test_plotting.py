@@ -1,4 +1,4 @@
-"""Tests for slam_env.plotting (matplotlib Agg, no pyplot)."""
+"""Tests for slam_env.render.plots (matplotlib Agg, no pyplot)."""
 
 from __future__ import annotations
 
@@ -10,8 +10,8 @@ import pytest
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
-from slam_env.overlay import BeliefOverlay
-from slam_env.plotting import (
+from slam_env.belief.overlay import BeliefOverlay
+from slam_env.render.plots import (
     mean_and_band,
     plot_episode,
     plot_metrics_over_time,

@@ -1,4 +1,4 @@
-"""Tests for slam_env.rendering (pygame, headless) and slam_env.overlay."""
+"""Tests for slam_env.render.renderer (pygame, headless) and slam_env.belief.overlay."""
 
 from __future__ import annotations
 
@@ -14,8 +14,8 @@ os.environ.setdefault("SDL_AUDIODRIVER", "dummy")
 import numpy as np
 import pytest
 
-from slam_env.overlay import CHI2_2DOF_95, chi2_radius2, ellipses_points
-from slam_env.rendering import COLORS, BeliefOverlay, Frame, Renderer, ellipse_points
+from slam_env.belief.overlay import CHI2_2DOF_95, chi2_radius2, ellipses_points
+from slam_env.render.renderer import COLORS, BeliefOverlay, Frame, Renderer, ellipse_points
 from slam_env.world.layouts import Layout
 
 FOV = 2.0 * math.pi / 3.0
@@ -353,7 +353,7 @@ def test_human_mode_headless(layout):
 def test_importing_rendering_does_not_import_pygame():
     code = (
         "import sys\n"
-        "import slam_env.rendering, slam_env.overlay, slam_env.plotting\n"
+        "import slam_env.render.renderer, slam_env.belief.overlay, slam_env.render.plots\n"
         "assert 'pygame' not in sys.modules, 'pygame imported'\n"
         "assert 'matplotlib.pyplot' not in sys.modules, 'pyplot imported'\n"
         "print('ok')\n"

@@ -19,7 +19,8 @@ import gymnasium as gym
 import numpy as np
 import pytest
 
-from slam_env.wrappers import REWARD_TERMS, ActiveSLAMReward, ActiveSLAMRewardWeights
+from slam_env.belief.reward import REWARD_TERMS, ActiveSLAMRewardWeights
+from slam_env.belief.reward_wrapper import ActiveSLAMReward
 
 README = Path(__file__).resolve().parents[1] / "README.md"
 DEFAULTS = {

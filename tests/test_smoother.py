@@ -15,8 +15,8 @@ from benchmarks.smoother import (
     first_sightings,
     smooth,
 )
+from slam_env.belief.metrics import map_rmse
 from slam_env.ekf.models import MEASUREMENT_MODELS, MOTION_MODELS
-from slam_env.metrics import map_rmse
 
 ALPHAS = (0.005, 0.002, 0.01, 0.001)
 VELOCITY_NOISE = (0.01, 0.005, 0.01, 0.02)

@@ -11,8 +11,8 @@ import pytest
 from matplotlib.path import Path as PolygonPath
 
 import slam_env  # noqa: F401  (registers the env IDs)
-from slam_env.rendering import COLORS, Frame, Renderer
-from slam_env.visibility import RAY_SPACING, sensor_ray_angles, visible_region
+from slam_env.render.renderer import COLORS, Frame, Renderer
+from slam_env.render.visibility import RAY_SPACING, sensor_ray_angles, visible_region
 from slam_env.world.layouts import LANDMARK_POST_RADIUS, Layout
 
 FOV = 2.0 * math.pi / 3.0

@@ -12,12 +12,12 @@ from gymnasium.utils.env_checker import check_env as gym_check_env
 from stable_baselines3.common.env_checker import check_env as sb3_check_env
 
 import slam_env
-from slam_env import metrics
-from slam_env.belief import slot_indices, unpack_full_belief
-from slam_env.ekf import EKFSLAM
-from slam_env.metrics import nees_band
+from slam_env.belief import metrics
+from slam_env.belief.ekf_wrapper import EKFSLAMWrapper
+from slam_env.belief.encodings import slot_indices, unpack_full_belief
+from slam_env.belief.metrics import nees_band
+from slam_env.ekf import DEFAULT_GATE, EKFSLAM
 from slam_env.sensing.raw_observation import unpack_detections
-from slam_env.wrappers import DEFAULT_GATE, EKFSLAMWrapper
 from tests.streams import pickled_twin_digests
 
 ENV_ID = "slam_env/ActiveSLAM-v0"

@@ -13,7 +13,7 @@ See :class:`slam_env.ekf.filter.EKFSLAM` for the contract and
 :mod:`slam_env.ekf.models` for the models, their Jacobians and inverse models.
 """
 
-from slam_env.ekf.chi2 import chi2_gate, chi2_ppf
+from slam_env.ekf.chi2 import DEFAULT_GATE, chi2_gate, chi2_ppf
 from slam_env.ekf.configuration import (
     CORRECTION_MODES,
     DATA_ASSOCIATIONS,
@@ -36,6 +36,7 @@ __all__ = [
     "CORRECTED",
     "CORRECTION_MODES",
     "DATA_ASSOCIATIONS",
+    "DEFAULT_GATE",
     "DISCARDED",
     "EKFSLAM",
     "INITIALISED",

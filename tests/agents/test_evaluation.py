@@ -25,7 +25,7 @@ from agents.evaluation import (
     t_quantile,
 )
 from agents.registry import make_env
-from slam_env.metrics import averaged_nees, nees_band
+from slam_env.belief.metrics import averaged_nees, nees_band
 
 SMALL_WORLD = {"n_landmarks": 6, "width": 8.0, "height": 8.0, "n_obstacles": 1}
 HEURISTICS = [

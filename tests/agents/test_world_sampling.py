@@ -12,7 +12,7 @@ from agents.suite import agent_observation, suite_settings
 from agents.train_config import ConfigError, config_from_dict
 from agents.training import train
 from agents.world_sampling import WorldDistribution, WorldSamplingVecEnv, episode_length
-from slam_env.local_observation import local_space
+from slam_env.belief.local_encoding import local_space
 from tests.test_local_observation import local_space_with_extras
 
 ACTIVE = "slam_env/ActiveSLAM-v0"

@@ -9,8 +9,8 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from slam_env import metrics
-from slam_env.belief import EgocentricEncoding, FullEncoding, slot_indices
+from slam_env.belief import metrics
+from slam_env.belief.encodings import EgocentricEncoding, FullEncoding, slot_indices
 from slam_env.world.frames import wrap_angle
 
 TWO_PI = 2.0 * math.pi
@@ -132,7 +132,7 @@ def diagnostics(
 class CoverageGrid:
     """The swept-area grid on numpy arrays, one world, its footprint and regions
     computed afresh for each pose (the rules and float expressions of
-    :class:`slam_env.coverage.CoverageGrid`, which tabulates them per heading bin)."""
+    :class:`slam_env.belief.coverage.CoverageGrid`, which tabulates them per heading bin)."""
 
     DEFAULTS = {"cell": 0.5, "sectors": 8, "ring_edges": (5.0, 10.0), "heading_bins": 72}
 

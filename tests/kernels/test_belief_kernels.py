@@ -8,9 +8,9 @@ import math
 import numpy as np
 import pytest
 
-from slam_env.belief import BeliefGeometry, EgocentricEncoding, FullEncoding
-from slam_env.belief_entropy import BeliefEntropy
-from slam_env.coverage import CoverageGrid
+from slam_env.belief.coverage import CoverageGrid
+from slam_env.belief.encodings import BeliefGeometry, EgocentricEncoding, FullEncoding
+from slam_env.belief.entropy import BeliefEntropy
 from slam_env.ekf import EKFSLAM
 from slam_env.kernels.belief.belief_state import BeliefBatch, filter_belief
 from slam_env.kernels.belief.coverage import coverage_step

@@ -1,6 +1,6 @@
 """Swept-area coverage of B worlds: mark the sensor's footprint swept from each
 world's estimated pose, count the new cells, and summarise the unswept share per
-sector and ring around the robot (the rules: :class:`slam_env.coverage.CoverageGrid`,
+sector and ring around the robot (the rules: :class:`slam_env.belief.coverage.CoverageGrid`,
 which builds the tables once).
 
 The summary is incremental where the grid allows it. Each world keeps its arena cells
@@ -9,7 +9,7 @@ all and unswept, as prefix sums over the fine bins ring by ring: the region of a
 heading bin is a run of fine bins, so its count is two lookups. The counts are rebuilt
 only when the robot's cell changes (or a world's grid was reset or edited); a cell the
 sweep adds moves out of the unswept counts at once. A grid whose classes would not
-reproduce its region codes exactly (:mod:`slam_env.coverage_classes`) scans every cell
+reproduce its region codes exactly (:mod:`slam_env.belief.coverage_classes`) scans every cell
 each step instead (:func:`_features_at`), as the tests' reference does."""
 
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """Whether each world's filter has lost track: the gate's rejections in a row, and the
 ``diverged`` flag that sums up every sign of it (see
-:class:`slam_env.wrappers.EKFSLAMWrapper`)."""
+:class:`slam_env.belief.ekf_wrapper.EKFSLAMWrapper`)."""
 
 from __future__ import annotations
 
@@ -8,6 +8,9 @@ import numpy as np
 
 from slam_env.kernels.base.compiling import borrowing_kernel, kernel
 
+# This many gate rejections in a row, with no accepted correction between, means the
+# belief no longer explains what the robot sees.
+DIVERGENCE_REJECTIONS = 10
 # slam_env.ekf.Status codes (the kernels' own).
 CORRECTED, REJECTED = 0, 2
 

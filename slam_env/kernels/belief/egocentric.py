@@ -1,5 +1,5 @@
 """The egocentric belief encoding of B worlds: flat float32 features a policy learns
-from (layout: :class:`slam_env.belief.EgocentricEncoding`), clipped to their bounds."""
+from (layout: :class:`slam_env.belief.encodings.EgocentricEncoding`), clipped to their bounds."""
 
 from __future__ import annotations
 

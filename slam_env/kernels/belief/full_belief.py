@@ -1,5 +1,5 @@
 """The full belief encoding of B worlds: mean, covariance and known-mask slotted by
-landmark ID (layout: :class:`slam_env.belief.FullEncoding`), float32, clipped."""
+landmark ID (layout: :class:`slam_env.belief.encodings.FullEncoding`), float32, clipped."""
 
 from __future__ import annotations
 

@@ -1,6 +1,6 @@
 """The count-independent ("local") belief encoding of B worlds: robot features, the K
 nearest known landmarks in the estimated robot frame and an egocentric local map
-(layout: :class:`slam_env.local_observation.LocalEncoding`), float32, clipped; and the
+(layout: :class:`slam_env.belief.local_encoding.LocalEncoding`), float32, clipped; and the
 memory of the obstacles the proximity scan has hit, which the map shows."""
 
 from __future__ import annotations

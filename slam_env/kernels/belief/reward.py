@@ -1,5 +1,5 @@
 """The active-SLAM reward of B worlds as named terms (the formula: README and
-:class:`slam_env.wrappers.ActiveSLAMReward`):
+:class:`slam_env.belief.reward_wrapper.ActiveSLAMReward`):
 
     information_gain = w₀ (H_{t−1} − H_t)      pose_uncertainty = −w₁ σ_pose
     collision = −w₂ in contact, else 0         step = −w₃

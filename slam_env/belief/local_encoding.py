@@ -17,8 +17,8 @@ from __future__ import annotations
 import numpy as np
 from gymnasium import spaces
 
-from slam_env.belief import HEADING_STD_SCALE, POSITION_STD_SCALE, BeliefGeometry
-from slam_env.coverage import CoverageGrid
+from slam_env.belief.coverage import CoverageGrid
+from slam_env.belief.encodings import HEADING_STD_SCALE, POSITION_STD_SCALE, BeliefGeometry
 from slam_env.kernels.belief.belief_state import BeliefBatch
 from slam_env.kernels.belief.local_map import (
     MAP_CHANNELS,

@@ -26,6 +26,11 @@ from slam_env.kernels.belief.egocentric import EgocentricParams, encode_egocentr
 from slam_env.kernels.belief.full_belief import FullBelief, encode_full
 
 # Scales that turn standard deviations into features in [0, 1): tanh(σ / scale).
+# The belief observations of the wrapper (ActiveSLAM-v0 adds "local").
+OBSERVATION_MODES = ("egocentric", "full")
+# Raw observation keys handed to the policy as they are, in this order: the proximity
+# sensors, which say where obstacles are (the landmark map does not hold them).
+PASSTHROUGH_KEYS = ("scan", "bumper")
 POSITION_STD_SCALE = 1.0  # m
 HEADING_STD_SCALE = 0.5  # rad
 # A belief further than this many arena sizes outside the arena has diverged.

@@ -7,7 +7,7 @@ import math
 
 import numpy as np
 
-from slam_env import metrics
+from slam_env.belief import metrics
 from slam_env.kernels.belief.belief_state import SINGLE
 from slam_env.kernels.belief.entropy import belief_entropy, slots_entropy
 
@@ -31,7 +31,7 @@ class BeliefEntropy:
 
     The kernel factors each world's covariance; the rare world that round-off left
     not positive definite is finished here, its eigenvalues clamped at 1e-300
-    (:func:`slam_env.metrics.log_det_psd`).
+    (:func:`slam_env.belief.metrics.log_det_psd`).
     """
 
     def __init__(self, max_landmarks: int, width: float, height: float) -> None:

@@ -1,14 +1,14 @@
 """Pygame rendering of the world, the robot, its sensor and (optionally) a SLAM belief.
 
 This is the only module that uses pygame, and it imports it lazily (inside methods),
-so ``import slam_env.rendering`` — and the env — work where pygame is unusable.
+so ``import slam_env.render.renderer`` — and the env — work where pygame is unusable.
 
 The env hands the :class:`Renderer` a :class:`Frame` (plain data) every time it is
 asked to render; the EKF wrapper adds a :class:`BeliefOverlay`. A frame is the map
 (the world, the sensor's visible region, the true and estimated paths, the robot, the
 detections, the belief with its 95% ellipses) above a strip with the step, the
 landmarks seen, the belief's live figures, a 1 m scale bar and a legend. The colours
-and symbols are those of the plots (:data:`slam_env.overlay.PALETTE`).
+and symbols are those of the plots (:data:`slam_env.belief.overlay.PALETTE`).
 
 ``"rgb_array"`` mode draws off-screen (headless, no display needed) and returns a fresh
 (H, W, 3) uint8 array whose shape never changes for the renderer's life, even when the
@@ -25,7 +25,7 @@ from typing import Any
 
 import numpy as np
 
-from slam_env.overlay import (
+from slam_env.belief.overlay import (
     CHI2_2DOF_95,
     ELLIPSE_FILL_ALPHA,
     LEGEND_LABELS,
@@ -104,7 +104,7 @@ class Frame:
         collision: whether the robot is in contact with a wall or an obstacle.
         belief: an optional SLAM belief to draw on top.
         visible_region: (K, 2) polygon, m, of what the landmark sensor sees, clipped by
-            what occludes it (:func:`slam_env.visibility.visible_region`); ``None``
+            what occludes it (:func:`slam_env.render.visibility.visible_region`); ``None``
             draws the unclipped field of view.
         step: steps since the reset, shown in the strip; ``None``: not shown.
     """

@@ -1,45 +1,35 @@
-"""The EKF-SLAM belief wrapper and the active-SLAM reward wrapper."""
+"""The EKF-SLAM belief as a wrapper over ``slam_env/Landmarks-v0`` (or a user's env of its
+stream), for users' own stacks: ``slam_env/ActiveSLAM-v0`` computes the same in its core."""
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 from typing import Any, SupportsFloat
 
 import gymnasium as gym
 import numpy as np
 
-from slam_env.belief import BeliefGeometry, EgocentricEncoding, FullEncoding
-from slam_env.belief_entropy import ENTROPY_FLOOR, BeliefEntropy, landmark_prior_variance
-from slam_env.ekf import CORRECTED, CORRECTION_MODES, EKFSLAM, REJECTED, chi2_gate
+from slam_env.belief.encodings import (
+    OBSERVATION_MODES,
+    PASSTHROUGH_KEYS,
+    BeliefGeometry,
+    EgocentricEncoding,
+    FullEncoding,
+)
+from slam_env.belief.entropy import BeliefEntropy
+from slam_env.belief.overlay import BeliefOverlay
+from slam_env.ekf import CORRECTION_MODES, DEFAULT_GATE, EKFSLAM
 from slam_env.kernels.belief.belief_state import SINGLE, BeliefBatch, filter_belief
 from slam_env.kernels.belief.diagnostics import DIAGNOSTICS, belief_diagnostics
-from slam_env.kernels.belief.reward import RewardSignals, active_slam_reward
-from slam_env.overlay import BeliefOverlay
+from slam_env.kernels.belief.divergence import (
+    DIVERGENCE_REJECTIONS,
+    count_rejections,
+    diverged,
+)
 from slam_env.sensing.raw_observation import unpack_detections
 
-__all__ = [
-    "DEFAULT_GATE",
-    "DIVERGENCE_REJECTIONS",
-    "ENTROPY_FLOOR",
-    "OBSERVATION_MODES",
-    "REWARD_TERMS",
-    "ActiveSLAMReward",
-    "ActiveSLAMRewardWeights",
-    "EKFSLAMWrapper",
-    "landmark_prior_variance",
-]
+__all__ = ["EKFSLAMWrapper"]
 
-OBSERVATION_MODES = ("egocentric", "full")
-# Raw observation keys handed to the policy as they are, in this order: the proximity
-# sensors, which say where obstacles are (the landmark map does not hold them).
-PASSTHROUGH_KEYS = ("scan", "bumper")
-# The default validation gate: χ²(2 dof) at 99.9%. A noise-matched filter rejects one
-# good observation in a thousand, while a gross outlier (say 10σ) never passes.
-DEFAULT_GATE = chi2_gate(0.999)
-# This many gate rejections in a row, with no accepted correction between, means the
-# belief no longer explains what the robot sees.
-DIVERGENCE_REJECTIONS = 10
 # What the filter raises when its arithmetic breaks down. The wrapper feeds it only the
 # env's own stream, well-formed by construction (finite, of the right shapes, IDs in
 # range), so a ValueError from it (a math domain error, a LinAlgError) is numerical too.
@@ -61,7 +51,7 @@ class EKFSLAMWrapper(gym.ObservationWrapper):
     Args:
         env: a ``LandmarksEnv`` (possibly wrapped).
         observation: ``"egocentric"`` (flat features, the RL default) or ``"full"``
-            (the exact belief); see :mod:`slam_env.belief`.
+            (the exact belief); see :mod:`slam_env.belief.encodings`.
         correction: ``"sequential"`` or ``"batch"``.
         gate: χ² threshold on the innovation's Mahalanobis distance (2 dof), or
             ``None`` to accept everything. Default: the 99.9% quantile.
@@ -169,8 +159,12 @@ class EKFSLAMWrapper(gym.ObservationWrapper):
                     dtype=np.float32,
                 )
         self._last_clipped = False
-        self._consecutive_rejections = 0
-        self._numerical_failure = False
+        # The divergence kernels' state and outputs for the batch of one: rejections in a
+        # row, a numerical failure since the reset, and the verdict.
+        self._in_a_row = np.zeros(SINGLE, dtype=np.int64)
+        self._failed = np.zeros(SINGLE, dtype=np.bool_)
+        self._diverged = np.zeros(SINGLE, dtype=np.bool_)
+        self._status_count = np.zeros(SINGLE, dtype=np.int64)
 
     # ------------------------------------------------------------------ API
     def reset(
@@ -182,8 +176,8 @@ class EKFSLAMWrapper(gym.ObservationWrapper):
         truth[info["landmark_ids"]] = info["landmark_positions"]
         self._true_landmarks = truth[None]
         self.filter.reset(initial_pose=info["pose"], initial_pose_cov=self._initial_pose_cov)
-        self._consecutive_rejections = 0
-        self._numerical_failure = False
+        self._in_a_row[0] = 0
+        self._failed[0] = False
         self._correct(raw)
         return self._observe(raw, info)
 
@@ -192,7 +186,7 @@ class EKFSLAMWrapper(gym.ObservationWrapper):
         try:
             self.filter.predict(raw["odometry"])
         except NUMERICAL_FAILURES:
-            self._numerical_failure = True  # the belief has diverged: report it
+            self._failed[0] = True  # the belief has diverged: report it
         self._correct(raw)
         obs, info = self._observe(raw, info)
         return obs, reward, terminated, truncated, info
@@ -226,7 +220,7 @@ class EKFSLAMWrapper(gym.ObservationWrapper):
         an unseen landmark's slot carries an independent prior, uniform over the arena
         in its first two moments, so discovering a landmark lowers the entropy and the
         dimension never changes. It is computed for Σ + ``ENTROPY_FLOOR``·I (see
-        :class:`slam_env.belief_entropy.BeliefEntropy`). ``cov``: a covariance in the
+        :class:`slam_env.belief.entropy.BeliefEntropy`). ``cov``: a covariance in the
         filter's state order (not modified); default the filter's."""
         if cov is not None:
             return self._entropy(cov)
@@ -257,13 +251,11 @@ class EKFSLAMWrapper(gym.ObservationWrapper):
         except NUMERICAL_FAILURES:
             # The filter refused an update that would break Σ (and left itself as it
             # was): the belief has diverged; report it rather than hand out NaN.
-            self._numerical_failure = True
+            self._failed[0] = True
             return
-        for status in result.status.tolist():
-            if status == REJECTED:
-                self._consecutive_rejections += 1
-            elif status == CORRECTED:
-                self._consecutive_rejections = 0
+        status = result.status[None]
+        self._status_count[0] = status.shape[1]
+        count_rejections(status, self._status_count, self._one, self._in_a_row)
 
     def _observe(
         self, raw: dict[str, np.ndarray], info: dict[str, Any]
@@ -292,114 +284,8 @@ class EKFSLAMWrapper(gym.ObservationWrapper):
         info["entropy"] = self._entropy_out.item()
         info["pose_std"] = pose_std
         info["belief_clipped"] = clipped
-        info["consecutive_rejections"] = self._consecutive_rejections
-        info["diverged"] = bool(
-            clipped
-            or self._numerical_failure
-            or self._consecutive_rejections >= DIVERGENCE_REJECTIONS
-        )
+        info["consecutive_rejections"] = self._in_a_row.item()
+        self._clipped[0] = clipped
+        diverged(self._clipped, self._failed, self._in_a_row, DIVERGENCE_REJECTIONS, self._diverged)
+        info["diverged"] = self._diverged.item()
         return obs, info
-
-
-REWARD_TERMS = ("information_gain", "pose_uncertainty", "collision", "step", "coverage")
-
-
-@dataclass(frozen=True)
-class ActiveSLAMRewardWeights:
-    """Weights of the active-SLAM reward terms (see :class:`ActiveSLAMReward`)."""
-
-    information_gain: float = 0.1  # per nat of entropy removed
-    pose_uncertainty: float = 0.1  # per m of pose standard deviation, each step
-    collision: float = 1.0  # per step in contact
-    step: float = 0.01  # per step
-    coverage: float = 0.0  # per share of the arena newly swept (needs a CoverageWrapper)
-
-    def __post_init__(self) -> None:
-        for name in REWARD_TERMS:
-            value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, (int, float)):
-                raise TypeError(f"reward weight {name} must be a number, got {value!r}")
-            if not math.isfinite(value) or value < 0:
-                raise ValueError(f"reward weight {name} must be finite and >= 0, got {value}")
-
-
-class ActiveSLAMReward(gym.Wrapper):
-    """The active-SLAM reward over an :class:`EKFSLAMWrapper`, as named terms:
-
-    * ``information_gain`` = w · (H_{t−1} − H_t): the entropy the step removed from the
-      belief over all landmark slots. Discovering a landmark is worth about 10–15 nats
-      (its slot goes from the arena-wide prior to a few cm), re-observing one a few
-      tenths; dead reckoning costs a little. This is the term that drives exploration.
-    * ``pose_uncertainty`` = −w · σ_pose (m): an information-gain reward alone does not
-      care *when* the robot is lost; this term pays for closing loops early.
-    * ``collision`` = −w on a step in contact: the map does not see obstacles.
-    * ``step`` = −w: a small time cost, so that finishing early is better.
-    * ``coverage`` = w · (the share of the arena newly swept by the sensor, from a
-      :class:`slam_env.coverage.CoverageWrapper` below): off by default. Information
-      gain pays only when a landmark turns up; this pays for looking where none has
-      been seen yet, a dense signal that speeds up learning to explore.
-
-    The terms are reported in ``info["reward_terms"]``; the raw env's scripting terms
-    move to ``info["raw_reward_terms"]``. The reward is their sum, a Python float.
-    """
-
-    def __init__(self, env: gym.Env, weights: ActiveSLAMRewardWeights | None = None) -> None:
-        super().__init__(env)
-        self.weights = weights or ActiveSLAMRewardWeights()
-        # The step's signals, the previous step's (the baseline of the gains), and the
-        # terms and reward: the reward kernel's batch of one.
-        self._now = RewardSignals(
-            np.zeros(SINGLE), np.zeros(SINGLE), np.zeros(SINGLE, dtype=np.bool_), np.zeros(SINGLE)
-        )
-        self._last = np.zeros((SINGLE, 2))  # the previous entropy and swept fraction
-        self._terms = np.zeros((SINGLE, len(REWARD_TERMS)))
-        self._reward = np.zeros(SINGLE)
-        self._one = np.ones(SINGLE, dtype=np.bool_)  # the kernel's mask: the one world
-
-    @property
-    def weights(self) -> ActiveSLAMRewardWeights:
-        """The weights of the terms."""
-        return self._weights
-
-    @weights.setter
-    def weights(self, weights: ActiveSLAMRewardWeights) -> None:
-        if not isinstance(weights, ActiveSLAMRewardWeights):
-            raise TypeError("weights must be an ActiveSLAMRewardWeights")
-        self._weights = weights
-        self._weight_array = np.array([getattr(weights, name) for name in REWARD_TERMS])
-
-    def reset(self, **kwargs: Any) -> tuple[Any, dict[str, Any]]:
-        obs, info = self.env.reset(**kwargs)
-        self._require_belief_info(info)
-        self._last[0] = (info["entropy"], _swept_fraction(info))
-        info["raw_reward_terms"] = info.pop("reward_terms", {})
-        info["reward_terms"] = dict.fromkeys(REWARD_TERMS, 0.0)
-        return obs, info
-
-    def step(self, action: Any) -> tuple[Any, SupportsFloat, bool, bool, dict[str, Any]]:
-        obs, _, terminated, truncated, info = self.env.step(action)
-        now = self._now
-        now.entropy[0] = info["entropy"]
-        now.pose_std[0] = info["pose_std"]
-        now.collision[0] = info["collision"]
-        now.swept_fraction[0] = _swept_fraction(info)
-        active_slam_reward(
-            self._weight_array, *now, self._last, self._terms, self._reward, self._one
-        )
-        info["raw_reward_terms"] = info.pop("reward_terms", {})
-        info["reward_terms"] = dict(zip(REWARD_TERMS, self._terms[0].tolist(), strict=True))
-        return obs, self._reward.item(), terminated, truncated, info
-
-    def _require_belief_info(self, info: dict[str, Any]) -> None:
-        if "entropy" not in info:
-            raise TypeError("ActiveSLAMReward must wrap an EKFSLAMWrapper (info has no entropy)")
-        if self.weights.coverage and "swept_fraction" not in info:
-            raise TypeError(
-                "ActiveSLAMReward with a coverage weight must wrap a CoverageWrapper "
-                "(info has no swept_fraction)"
-            )
-
-
-def _swept_fraction(info: dict[str, Any]) -> float:
-    """The swept share of the arena from a CoverageWrapper below, 0 without one."""
-    return info.get("swept_fraction", 0.0)

@@ -17,8 +17,8 @@ from matplotlib.figure import Figure
 from matplotlib.patches import Polygon, Rectangle
 from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
 
-from slam_env.metrics import averaged_nees, nees_bands
-from slam_env.overlay import (
+from slam_env.belief.metrics import averaged_nees, nees_bands
+from slam_env.belief.overlay import (
     ELLIPSE_FILL_ALPHA,
     LEGEND_LABELS,
     PALETTE,
@@ -43,7 +43,7 @@ def _hex(rgb: tuple[int, int, int]) -> str:
     return "#{:02x}{:02x}{:02x}".format(*rgb)
 
 
-#: The shared palette (:data:`slam_env.overlay.PALETTE`) as matplotlib colours.
+#: The shared palette (:data:`slam_env.belief.overlay.PALETTE`) as matplotlib colours.
 _COLORS = {name: _hex(rgb) for name, rgb in PALETTE.items()}
 _ELLIPSE_EDGE_WIDTH = 1.6  # pt: a 95% ellipse shows even when it is small
 _ROBOT_MARKER_PT = 9.0
@@ -432,7 +432,7 @@ def plot_consistency(
 ) -> Figure:
     """Filter consistency over time, one line per agent: above, the pose NEES averaged
     over the episodes (log scale) inside its two-sided ``confidence`` χ² band for that
-    many episodes (:func:`slam_env.metrics.nees_band`; ``dof`` 3 for x, y, θ), with the
+    many episodes (:func:`slam_env.belief.metrics.nees_band`; ``dof`` 3 for x, y, θ), with the
     expected value ``dof``; below, the map RMSE (mean ± std over the episodes).
 
     Args:

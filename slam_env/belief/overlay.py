@@ -15,8 +15,8 @@ CHI2_2DOF_95 = 5.991464547107979
 
 TrueLandmarks = Mapping[int, tuple[float, float]] | np.ndarray | None
 
-#: RGB colours of what the pictures show, shared by the movie (:mod:`slam_env.rendering`)
-#: and the plots (:mod:`slam_env.plotting`), so that one thing looks the same everywhere.
+#: RGB colours of what the pictures show, shared by the movie (:mod:`slam_env.render.renderer`)
+#: and the plots (:mod:`slam_env.render.plots`), so that one thing looks the same everywhere.
 PALETTE: dict[str, tuple[int, int, int]] = {
     "floor": (250, 250, 246),
     "wall": (45, 45, 45),
