@@ -55,7 +55,7 @@ from agents.base import Agent
 from agents.registry import agent_label, make_agent, make_env
 from slam_env.belief.metrics import share_in_nees_band
 from slam_env.budget import MAX_MEMORY_BYTES
-from slam_env.registration import DEFAULT_MAX_EPISODE_STEPS
+from slam_env.envs.registration import DEFAULT_MAX_EPISODE_STEPS
 
 #: Per-episode metrics, in table order, with their descriptions.
 METRICS: dict[str, str] = {

@@ -64,7 +64,7 @@ def make_env(
     render_mode: str | None = None,
 ) -> gym.Env:
     """``gym.make`` the active-SLAM env with ``env_options`` (keyword options of
-    :class:`slam_env.active_slam.ActiveSLAMEnv`) and an optional episode length.
+    :class:`slam_env.envs.active_slam.ActiveSLAMEnv`) and an optional episode length.
 
     Raises ``ValueError`` naming the bad option (the env raises ``TypeError`` for
     unknown options; a command line reports both the same way).

@@ -31,7 +31,7 @@ from stable_baselines3.common.vec_env.base_vec_env import VecEnv, VecEnvIndices
 
 from agents.sb3_vector import SB3VectorEnv, make_sb3_vec_env
 from slam_env.config import PRESETS
-from slam_env.registration import DEFAULT_MAX_EPISODE_STEPS
+from slam_env.envs.registration import DEFAULT_MAX_EPISODE_STEPS
 
 # The arena side (m) whose episodes last DEFAULT_MAX_EPISODE_STEPS; others scale with it.
 REFERENCE_ARENA = 16.0

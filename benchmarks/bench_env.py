@@ -26,7 +26,7 @@ import gymnasium as gym
 
 import slam_env  # noqa: F401  (registers the env IDs)
 from agents.arguments import positive_int
-from slam_env.active_slam import DEFAULT_SCAN_BEAMS
+from slam_env.envs.active_slam import DEFAULT_SCAN_BEAMS
 
 VECTOR_IDS = {"Landmarks": "slam_env/Landmarks-v0", "ActiveSLAM": "slam_env/ActiveSLAM-v0"}
 

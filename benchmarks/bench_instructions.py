@@ -33,7 +33,7 @@ import sys
 from concurrent.futures import ThreadPoolExecutor
 
 from agents.arguments import positive_int
-from slam_env.active_slam import DEFAULT_SCAN_BEAMS
+from slam_env.envs.active_slam import DEFAULT_SCAN_BEAMS
 
 # Count only inside sys.call_tracing, which the child calls once, around the counted
 # steps (a C function of CPython's, so callgrind can name it).

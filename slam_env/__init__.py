@@ -19,7 +19,7 @@ try:
 except ImportError:  # the filter alone (slam_env.ekf) needs only numpy and numba
     pass
 else:
-    from slam_env.registration import register_envs
+    from slam_env.envs.registration import register_envs
 
     register_envs()
 

@@ -13,19 +13,23 @@ coverage grid's tables) once and the others once per sub-env. The README's
 
 from __future__ import annotations
 
-import inspect
 import math
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 from typing import Any, NoReturn
 
+from slam_env.belief.coverage import COVERAGE_CELL, HEADING_BINS, SECTORS, SENSOR_RING_EDGES
+from slam_env.belief.coverage_classes import class_counts_shape
+from slam_env.belief.encodings import BeliefGeometry
 from slam_env.config import EnvConfig, plain
+from slam_env.kernels.ekf.association import association_workspace_sizes
+from slam_env.kernels.ekf.filter import update_workspace_size
+from slam_env.kernels.world import motion
+from slam_env.sensing.raw_observation import detection_reach, odometry_translation_bound
+from slam_env.world.drive import MAX_MOVES_PER_STEP
+from slam_env.world.layout_files import load_layout
+from slam_env.world.layout_generators import landmark_capacity, landmark_spacing
 
-# Robot moves per env step: each is at most half the radius (so that the robot cannot
-# tunnel) and is checked against the shapes near the robot (by the motion kernel, or a
-# pymunk query in a standalone World); at the limit a step pressed into a wall costs
-# about 1 ms in the envs.
-MAX_MOVES_PER_STEP = 1_000
 # Proximity beams: a ray query each per step (~16 ms at the limit).
 MAX_SCAN_BEAMS = 4_096
 # Landmarks: a random world places them in O(n²) (~1.7 s per reset at the limit), a
@@ -108,7 +112,6 @@ def world_size(config: EnvConfig) -> WorldSize:
     """The :class:`WorldSize` of ``config``, without generating or validating a world:
     a layout is parsed (a file is read), a preset or random world is sized from the
     options."""
-    from slam_env.world.layout_files import load_layout
 
     if config.layout is not None:
         layout = load_layout(config.layout)
@@ -135,22 +138,15 @@ def _refuse(figure: str, value: float, limit: float, reason: str, fix: str) -> N
     )
 
 
-def _coverage_cell() -> float:
-    """The cell (m) of ``CoverageWrapper``'s grid: its default, read, not restated."""
-    from slam_env.belief.coverage_wrapper import CoverageWrapper
-
-    return inspect.signature(CoverageWrapper.__init__).parameters["cell"].default
-
-
 def _arena_cells(world: WorldSize) -> int:
-    cell = _coverage_cell()
+    cell = COVERAGE_CELL
     return max(math.ceil(world.width / cell), 1) * max(math.ceil(world.height / cell), 1)
 
 
 def _coverage_geometry(config: EnvConfig, world: WorldSize) -> tuple[int, int, int]:
     """The coverage grid's window offsets, footprint offsets (an upper bound) and padded
     cells (see :class:`slam_env.belief.coverage.CoverageGrid`)."""
-    cell = _coverage_cell()
+    cell = COVERAGE_CELL
     nx = max(math.ceil(world.width / cell), 1)
     ny = max(math.ceil(world.height / cell), 1)
     offsets = (2 * nx - 1) * (2 * ny - 1)
@@ -162,8 +158,6 @@ def _coverage_geometry(config: EnvConfig, world: WorldSize) -> tuple[int, int, i
 def _coverage_counts_bytes() -> int:
     """The bytes of one world's class counts in ``CoverageWrapper``'s grid (an upper
     bound: a grid that scans instead keeps none)."""
-    from slam_env.belief.coverage import HEADING_BINS, SECTORS, SENSOR_RING_EDGES
-    from slam_env.belief.coverage_classes import class_counts_shape
 
     return 8 * math.prod(class_counts_shape(HEADING_BINS, SECTORS, len(SENSOR_RING_EDGES) + 1))
 
@@ -192,9 +186,6 @@ def memory_parts(
         "coverage": 0,
     }
     if belief is not None:
-        from slam_env.kernels.ekf.association import association_workspace_sizes
-        from slam_env.kernels.ekf.filter import update_workspace_size
-
         dim = 3 + 2 * world.n_landmark_slots
         parts["belief"] = BELIEF_DENSE_COPIES[belief] * 8 * dim * dim
         # The filter's workspaces grow with the detections a step has.
@@ -315,12 +306,12 @@ def check_budget(
 
 def _check_work(config: EnvConfig) -> int:
     """The work of a step: robot moves and scan beams. Returns the moves per step."""
-    from slam_env.kernels.world.motion import MAX_MOVE_FRACTION
 
     robot = config.robot
     # World.step's count: max(physics_substeps, ⌈|v|·dt / (MAX_MOVE_FRACTION·radius)⌉).
     moves = max(
-        robot.max_speed * config.dt / (MAX_MOVE_FRACTION * robot.radius), config.physics_substeps
+        robot.max_speed * config.dt / (motion.MAX_MOVE_FRACTION * robot.radius),
+        config.physics_substeps,
     )
     if moves > MAX_MOVES_PER_STEP:
         _refuse(
@@ -341,7 +332,6 @@ def _check_work(config: EnvConfig) -> int:
 
 def _check_world(config: EnvConfig, world: WorldSize, coverage: bool) -> int:
     """Landmarks, obstacles, detection rows and the arena. Returns the arena's cells."""
-    from slam_env.world.layout_generators import landmark_capacity
 
     if config.layout is None:
         counts = {"n_landmarks": world.n_landmarks, "n_obstacles": world.n_obstacles}
@@ -382,7 +372,7 @@ def _check_world(config: EnvConfig, world: WorldSize, coverage: bool) -> int:
     cells = _arena_cells(world)
     if (lattice_world or coverage) and cells > MAX_ARENA_CELLS:
         _refuse(
-            f"arena cells = ⌈width/{_coverage_cell():g} m⌉·⌈height/{_coverage_cell():g} m⌉",
+            f"arena cells = ⌈width/{COVERAGE_CELL:g} m⌉·⌈height/{COVERAGE_CELL:g} m⌉",
             cells,
             MAX_ARENA_CELLS,
             "the coverage grid's tables and the presets' lattices grow with them",
@@ -406,7 +396,6 @@ def detections_in_view(config: EnvConfig, world: WorldSize) -> int:
     """The most detections a step can hold: the detection rows, the landmarks, and no
     more than fit within ``max_range`` of the robot at their least spacing s, (2R/s + 1)²
     (their discs of radius s/2 lie inside a disc of radius R + s/2)."""
-    from slam_env.world.layout_generators import landmark_spacing
 
     spacing = landmark_spacing(config.world if config.layout is None else None)
     around = (2.0 * config.sensor.max_range / spacing + 1.0) ** 2
@@ -434,8 +423,6 @@ def _check_belief_work(config: EnvConfig, world: WorldSize, belief: str) -> None
 
 def _check_observation_bounds(config: EnvConfig, world: WorldSize, belief: str | None) -> None:
     """Every bound of the observation space must be a finite float32."""
-    from slam_env.belief.encodings import BeliefGeometry
-    from slam_env.sensing.raw_observation import detection_reach, odometry_translation_bound
 
     bounds = {
         "odometry bound = 4·max_speed·dt + 1 m": odometry_translation_bound(config),

@@ -32,9 +32,9 @@ STEPS = 20
 def numeric_options(env_id: str) -> dict[str, str]:
     """Every numeric option of ``env_id`` → its kind: "int", "float", "tupleN" (N
     numbers), "cov" (a 2×2 matrix) or "weight" (an entry of ``reward_weights``)."""
-    from slam_env.active_options import ActiveSLAMOptions
     from slam_env.belief.reward import ActiveSLAMRewardWeights
     from slam_env.config import _SECTIONS, EnvConfig
+    from slam_env.core.active_options import ActiveSLAMOptions
 
     kinds: dict[str, str] = {}
     fields = [f for cls in _SECTIONS.values() for f in dataclasses.fields(cls)]

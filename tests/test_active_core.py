@@ -12,12 +12,12 @@ import numpy as np
 import pytest
 
 import slam_env  # noqa: F401  (registers the env IDs)
-from slam_env.active_options import ACTIVE_SLAM_DEFAULTS
 from slam_env.belief.coverage_wrapper import CoverageWrapper
 from slam_env.belief.ekf_wrapper import EKFSLAMWrapper
 from slam_env.belief.reward import ActiveSLAMRewardWeights
 from slam_env.belief.reward_wrapper import ActiveSLAMReward
-from slam_env.env import LandmarksEnv
+from slam_env.core.active_options import ACTIVE_SLAM_DEFAULTS
+from slam_env.envs.landmarks import LandmarksEnv
 from tests.streams import assert_same
 
 # (the belief's options, the world's options)

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 import slam_env  # noqa: F401
-from slam_env.active_slam import DEFAULT_SCAN_BEAMS, ActiveSLAMEnv
 from slam_env.belief.reward import ActiveSLAMRewardWeights
+from slam_env.envs.active_slam import DEFAULT_SCAN_BEAMS, ActiveSLAMEnv
 
 ENV_ID = "slam_env/ActiveSLAM-v0"
 BELIEF_FEATURES = 7 + 4 * 20  # the egocentric belief of the default 20 landmarks

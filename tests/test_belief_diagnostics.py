@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from slam_env.belief.ekf_wrapper import EKFSLAMWrapper
-from slam_env.env import LandmarksEnv
+from slam_env.envs.landmarks import LandmarksEnv
 
 ENV_ID = "slam_env/ActiveSLAM-v0"
 

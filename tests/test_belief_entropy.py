@@ -17,7 +17,7 @@ import pytest
 
 from slam_env.belief.ekf_wrapper import EKFSLAMWrapper
 from slam_env.belief.entropy import ENTROPY_FLOOR
-from slam_env.env import LandmarksEnv
+from slam_env.envs.landmarks import LandmarksEnv
 
 WIDTH, HEIGHT, SLOTS = 20.0, 12.0, 7  # a non-square arena: width and height not swapped
 

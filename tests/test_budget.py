@@ -92,7 +92,7 @@ def nothing_is_built(monkeypatch):
 
     # Every module that binds these names is imported before they are patched: one first
     # imported under the patches would keep a fake after them (and fail later tests).
-    importlib.import_module("slam_env.vector")  # the envs and both cores
+    importlib.import_module("slam_env.envs.vector")  # the envs and both cores
     importlib.import_module("slam_env.belief.ekf_wrapper")
     importlib.import_module("slam_env.belief.coverage_wrapper")
     monkeypatch.setattr("slam_env.world.world_batch.layout_for", forbidden)
@@ -102,7 +102,7 @@ def nothing_is_built(monkeypatch):
     monkeypatch.setattr("slam_env.belief.coverage.CoverageGrid", forbidden)
     monkeypatch.setattr("slam_env.belief.coverage_wrapper.CoverageGrid", forbidden)
     # ActiveSLAM-v0 builds its grid under the name it imported.
-    monkeypatch.setattr("slam_env.active_core.CoverageGrid", forbidden)
+    monkeypatch.setattr("slam_env.core.active.CoverageGrid", forbidden)
 
 
 @pytest.mark.parametrize(("env_id", "options", "name", "figure"), REFUSED)

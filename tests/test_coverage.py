@@ -14,7 +14,7 @@ from slam_env.belief.coverage_wrapper import CoverageWrapper
 from slam_env.belief.ekf_wrapper import EKFSLAMWrapper
 from slam_env.belief.reward import ActiveSLAMRewardWeights
 from slam_env.belief.reward_wrapper import ActiveSLAMReward
-from slam_env.env import LandmarksEnv
+from slam_env.envs.landmarks import LandmarksEnv
 
 ENV_ID = "slam_env/ActiveSLAM-v0"
 

@@ -21,7 +21,7 @@ import pytest
 from slam_env.belief.coverage import CoverageGrid
 from slam_env.belief.coverage_wrapper import CoverageWrapper
 from slam_env.belief.ekf_wrapper import EKFSLAMWrapper
-from slam_env.env import LandmarksEnv
+from slam_env.envs.landmarks import LandmarksEnv
 
 TWO_PI = 2.0 * math.pi
 TIE = 1e-9  # rad or m: closer than this to an edge, the reference cannot tell the side

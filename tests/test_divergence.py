@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from slam_env.belief.ekf_wrapper import EKFSLAMWrapper
-from slam_env.env import LandmarksEnv
+from slam_env.envs.landmarks import LandmarksEnv
 from slam_env.kernels.belief.divergence import DIVERGENCE_REJECTIONS
 
 LAYOUT = {

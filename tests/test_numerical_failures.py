@@ -11,7 +11,7 @@ import pytest
 
 import slam_env  # noqa: F401  (registers the env IDs)
 from slam_env.belief.ekf_wrapper import EKFSLAMWrapper
-from slam_env.env import LandmarksEnv
+from slam_env.envs.landmarks import LandmarksEnv
 from slam_env.kernels.ekf import codes as ekf_codes
 
 ACTIVE = "slam_env/ActiveSLAM-v0"

@@ -11,10 +11,11 @@ import numpy as np
 import pytest
 
 import slam_env
-from slam_env.active_options import ACTIVE_SLAM_DEFAULTS, ActiveSLAMOptions
-from slam_env.active_slam import _OWN_ARGUMENTS, ActiveSLAMEnv
 from slam_env.config import _SECTIONS, make_config, option_names
-from slam_env.env import ENV_ARGUMENTS, LandmarksEnv
+from slam_env.core.active_options import ACTIVE_SLAM_DEFAULTS, ActiveSLAMOptions
+from slam_env.envs.active_slam import ActiveSLAMEnv
+from slam_env.envs.landmarks import LandmarksEnv
+from slam_env.envs.options import ACTIVE_ARGUMENTS, ENV_ARGUMENTS
 from tests.streams import digest
 
 RAW, ACTIVE = "slam_env/Landmarks-v0", "slam_env/ActiveSLAM-v0"
@@ -180,7 +181,7 @@ def test_active_slam_options_are_named_in_their_errors(option, error):
 
 @pytest.mark.parametrize(
     ("env_class", "own"),
-    [(LandmarksEnv, ENV_ARGUMENTS), (ActiveSLAMEnv, ENV_ARGUMENTS + _OWN_ARGUMENTS)],
+    [(LandmarksEnv, ENV_ARGUMENTS), (ActiveSLAMEnv, ACTIVE_ARGUMENTS)],
 )
 def test_an_unknown_option_lists_every_name_the_id_accepts(env_class, own):
     with pytest.raises(TypeError, match="unknown slam_env option 'fvo'") as exc:

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from slam_env.config import EnvConfig, WorldConfig
-from slam_env.raw_core import RawCore
+from slam_env.core.raw import RawCore
 from slam_env.world.layout_generators import preset_layout
 
 

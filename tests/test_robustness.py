@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 from gymnasium.vector import AutoresetMode
 
-import slam_env.active_slam
-import slam_env.env
+import slam_env.envs.active_slam
+import slam_env.envs.landmarks
 from tests.streams import digest
 
 ENV_ID = "slam_env/ActiveSLAM-v0"
@@ -99,7 +99,9 @@ def test_sb3_dummy_and_subproc_vec_envs_agree():
 
 
 @pytest.mark.parametrize(
-    "make", [slam_env.env.LandmarksEnv, slam_env.active_slam.ActiveSLAMEnv], ids=["raw", "active"]
+    "make",
+    [slam_env.envs.landmarks.LandmarksEnv, slam_env.envs.active_slam.ActiveSLAMEnv],
+    ids=["raw", "active"],
 )
 def test_step_before_reset_and_lifecycle_after_close(make):
     """As in Gymnasium's own envs: close releases the renderer and keeps the episode;

@@ -12,7 +12,7 @@ import pytest
 from gymnasium.vector import AutoresetMode
 
 import slam_env  # noqa: F401  (registers the env IDs)
-from slam_env.vector import SlamVectorEnv
+from slam_env.envs.vector import SlamVectorEnv
 from tests.streams import assert_same, digest
 
 LANDMARKS = "slam_env/Landmarks-v0"

@@ -270,7 +270,7 @@ def test_bad_wrapper_options_raise(kwargs, match):
 
 
 def test_wrapper_usable_directly_on_the_raw_env():
-    env = EKFSLAMWrapper(slam_env.env.LandmarksEnv(n_landmarks=5), observation="full")
+    env = EKFSLAMWrapper(slam_env.envs.landmarks.LandmarksEnv(n_landmarks=5), observation="full")
     obs, info = env.reset(seed=0)
     assert env.observation_space.contains(obs)
     assert info["landmarks_known"] == int(obs["known"].sum())
@@ -287,9 +287,13 @@ class LastObservation(gym.Wrapper):
 
 @pytest.mark.parametrize("observation", ["egocentric", "full"])
 def test_proximity_sensors_pass_through(observation):
-    raw = LastObservation(slam_env.env.LandmarksEnv(n_landmarks=5, scan_beams=4, bumper=True))
+    raw = LastObservation(
+        slam_env.envs.landmarks.LandmarksEnv(n_landmarks=5, scan_beams=4, bumper=True)
+    )
     env = EKFSLAMWrapper(raw, observation=observation)
-    bare = EKFSLAMWrapper(slam_env.env.LandmarksEnv(n_landmarks=5), observation=observation)
+    bare = EKFSLAMWrapper(
+        slam_env.envs.landmarks.LandmarksEnv(n_landmarks=5), observation=observation
+    )
     env.reset(seed=2)
     bare.reset(seed=2)
     bumps = 0

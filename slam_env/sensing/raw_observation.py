@@ -40,7 +40,7 @@ def raw_observation_space(
     config: EnvConfig, n_slots: int, max_detections: int
 ) -> tuple[spaces.Dict, RawParams]:
     """The raw observation space of one sub-env, and the bounds its values are clipped
-    to with the reward's constants (see :class:`slam_env.env.LandmarksEnv`)."""
+    to with the reward's constants (see :class:`slam_env.envs.landmarks.LandmarksEnv`)."""
     trans_bound = odometry_translation_bound(config)
     if config.odometry.motion_model == "odometry":
         odo_high = np.array([math.pi, trans_bound, math.pi], dtype=np.float32)

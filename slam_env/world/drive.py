@@ -7,10 +7,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from slam_env.budget import MAX_MOVES_PER_STEP
 from slam_env.kernels.world.motion import drive
 from slam_env.kernels.world.static_geometry import StaticGeometry
 
+# Robot moves per env step: each is at most half the radius (so that the robot cannot
+# tunnel) and is checked against the shapes near the robot (by the motion kernel, or a
+# pymunk query in a standalone World); at the limit a step pressed into a wall costs
+# about 1 ms in the envs.
+MAX_MOVES_PER_STEP = 1_000
 _TREE = StaticGeometry._fields.index("tree")
 
 
@@ -22,7 +26,7 @@ class Drive:
     the caller to settle with clearance queries along ``moves[b, :counts[b]]`` from
     ``reaches[b]`` (see
     :func:`~slam_env.kernels.world.motion.drive`). The moves buffer starts at ``substeps`` rows
-    and grows for fast commands up to :data:`~slam_env.budget.MAX_MOVES_PER_STEP` (or
+    and grows for fast commands up to :data:`MAX_MOVES_PER_STEP` (or
     ``substeps``, if more); a command that needs more is refused.
     """
 
@@ -77,6 +81,6 @@ class Drive:
             raise ValueError(
                 f"speed {speeds.max():g} m/s is too fast for a {self.dt:g} s step: it needs "
                 f"more than {self.max_moves} moves of at most half the robot's radius "
-                f"({self.radius:g} m); see slam_env.budget.MAX_MOVES_PER_STEP"
+                f"({self.radius:g} m); see slam_env.world.drive.MAX_MOVES_PER_STEP"
             )
         self.moves = np.zeros((self.moves.shape[0], needed, 2))

@@ -292,7 +292,7 @@ class World:
         ``dt``; return True if an obstacle, a wall or a post blocked the motion.
         ``ValueError`` (the robot unmoved) for a non-finite command, or a speed so high
         that the step would take more than
-        :data:`~slam_env.budget.MAX_MOVES_PER_STEP` moves (or ``substeps``, if more)."""
+        :data:`~slam_env.world.drive.MAX_MOVES_PER_STEP` moves (or ``substeps``, if more)."""
         v = float(v)
         omega = float(omega)
         if not (math.isfinite(v) and math.isfinite(omega)):

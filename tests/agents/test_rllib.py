@@ -29,7 +29,7 @@ from agents.rllib_agent import load_rllib_agent
 from agents.rllib_config import RLlibSettings, check_gpus, ppo_config
 from agents.rllib_env import RLLIB_ENV_IDS, make_rllib_env
 from agents.train_config import config_from_dict
-from slam_env.vector import ActiveSLAMVectorEnv
+from slam_env.envs.vector import ActiveSLAMVectorEnv
 
 pytestmark = pytest.mark.rllib
 

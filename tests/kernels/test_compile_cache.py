@@ -68,7 +68,7 @@ def _compiled_files() -> set[Path]:
     """The source file of every kernel that the package and the agents define."""
     import agents.search_kernel  # noqa: F401  (the planners' kernel)
     import slam_env.ekf
-    import slam_env.vector  # noqa: F401  (imports every kernel of the envs)
+    import slam_env.envs.vector  # noqa: F401  (imports every kernel of the envs)
     from slam_env.kernels.base.compiling import KERNELS
 
     return {Path(k.py_func.__code__.co_filename).resolve() for k in KERNELS}

@@ -1,5 +1,5 @@
 """The active-SLAM step of B worlds after their raw step, in two kernel calls (see
-:class:`slam_env.active_core.ActiveCore`): each world's filter, then what the step
+:class:`slam_env.core.active.ActiveCore`): each world's filter, then what the step
 reports of its belief. They chain the kernels that the composable wrappers call one by
 one; as one call each, a batch of one pays numba's dispatch twice instead of a dozen
 times, which cost more than the work."""

@@ -1,5 +1,5 @@
 """Each sub-env's per-step uniforms, taken from its block of steps (drawn by
-:class:`slam_env.random_blocks.RandomBlocks` from its own generator) inside the raw
+:class:`slam_env.core.random_blocks.RandomBlocks` from its own generator) inside the raw
 step's kernel."""
 
 from __future__ import annotations

@@ -1,7 +1,7 @@
 """The raw step of B worlds once their robots have moved, in one kernel call (see
-:class:`slam_env.raw_core.RawCore`): the step's uniforms, the odometry reading, the
+:class:`slam_env.core.raw.RawCore`): the step's uniforms, the odometry reading, the
 landmark scan, its faults, the proximity scan and the raw observation. They chain the
-kernels of :mod:`~slam_env.random_blocks`, :mod:`~slam_env.kernels.stream.odometry`,
+kernels of :mod:`~slam_env.core.random_blocks`, :mod:`~slam_env.kernels.stream.odometry`,
 :mod:`~slam_env.kernels.stream.sensing`, :mod:`~slam_env.kernels.stream.faults` and
 :mod:`~slam_env.kernels.stream.observe`; as one call, a batch of one pays numba's dispatch
 once, and each array is passed once. What needs Python (refilling a block of
@@ -49,7 +49,7 @@ def raw_step(
     caller to refill them and call again; else 0.
 
     ``random_blocks``: ``(blocks, cursor, uniforms, used_up)`` of
-    :class:`~slam_env.random_blocks.RandomBlocks`; ``odometry``: ``(before,
+    :class:`~slam_env.core.random_blocks.RandomBlocks`; ``odometry``: ``(before,
     velocity_model, noise, control_true, control)``, ``before`` the poses before the
     motion (those after are the first of ``worlds``), as
     :func:`~slam_env.kernels.stream.odometry.read_odometry` takes them; ``odometry_faults``:

@@ -1,6 +1,6 @@
 """``slam_env/ActiveSLAM-v0``: the raw stream, the EKF-SLAM belief and the
 active-SLAM reward as one ``gymnasium.Env``: sub-env 0 of
-:class:`slam_env.active_core.ActiveCore`, which computes what the wrapper stack
+:class:`slam_env.core.active.ActiveCore`, which computes what the wrapper stack
 ``LandmarksEnv → EKFSLAMWrapper → CoverageWrapper → ActiveSLAMReward`` computes, with
 the same kernels, in a few compiled calls. Users reach the filter as
 ``env.unwrapped.filter``; users who want the wrappers on their own env use them
@@ -9,20 +9,17 @@ directly.
 
 from __future__ import annotations
 
-import inspect
 from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
 
-from slam_env.active_core import ActiveCore
-from slam_env.active_options import DEFAULT_SCAN_BEAMS, ActiveSLAMOptions, active_config
 from slam_env.belief.overlay import BeliefOverlay
 from slam_env.belief.reward import ActiveSLAMRewardWeights
-from slam_env.config import check_option_names
+from slam_env.core.active_options import DEFAULT_SCAN_BEAMS, ActiveSLAMOptions
 from slam_env.ekf import DEFAULT_GATE, EKFSLAM
-from slam_env.env import ENV_ARGUMENTS
-from slam_env.single_env import CoreEnv
+from slam_env.envs.options import active_core
+from slam_env.envs.single import CoreEnv
 
 __all__ = ["DEFAULT_SCAN_BEAMS", "LIVE_FIGURES", "ActiveSLAMEnv"]
 
@@ -34,7 +31,7 @@ class ActiveSLAMEnv(CoreEnv):
     """Active SLAM: act on the EKF-SLAM belief, be paid for reducing its uncertainty.
 
     The world, robot, sensors and episode end are those of
-    :class:`slam_env.env.LandmarksEnv`; the observation is the belief of
+    :class:`slam_env.envs.landmarks.LandmarksEnv`; the observation is the belief of
     :class:`slam_env.belief.ekf_wrapper.EKFSLAMWrapper` with the swept-area memory of
     :class:`slam_env.belief.coverage_wrapper.CoverageWrapper`, and the reward that of
     :class:`slam_env.belief.reward_wrapper.ActiveSLAMReward` (terms in ``info["reward_terms"]``).
@@ -112,10 +109,8 @@ class ActiveSLAMEnv(CoreEnv):
             new_landmark_sightings,
             wide_pairing_scans,
         )
-        check_option_names(env_options, ENV_ARGUMENTS + _OWN_ARGUMENTS)
-        config = active_config(opts, env_options, num_envs=1)
         # A batch of one: the native vector env runs the same core for B sub-envs.
-        self._setup(ActiveCore(config, 1, opts), render_mode)
+        self._setup(active_core(1, opts, env_options), render_mode)
         self.options = opts
         # What render() draws beyond the belief: the estimated path and live figures,
         # kept only when rendering.
@@ -154,11 +149,3 @@ class ActiveSLAMEnv(CoreEnv):
         overlay.trail = np.array(self._estimated_trail, dtype=np.float64).reshape(-1, 2)
         overlay.figures = dict(self._figures)
         return overlay
-
-
-# ActiveSLAMEnv's own arguments, for the list of valid names in errors.
-_OWN_ARGUMENTS = tuple(
-    name
-    for name, p in inspect.signature(ActiveSLAMEnv.__init__).parameters.items()
-    if name != "self" and p.kind is p.POSITIONAL_OR_KEYWORD
-)

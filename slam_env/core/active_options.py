@@ -11,8 +11,7 @@ from typing import Any
 
 from slam_env.belief.encodings import OBSERVATION_MODES
 from slam_env.belief.reward import ActiveSLAMRewardWeights
-from slam_env.budget import check_budget, world_size
-from slam_env.config import EnvConfig, make_config, plain, with_defaults
+from slam_env.config import EnvConfig, plain
 from slam_env.ekf import CORRECTION_MODES, DATA_ASSOCIATIONS, DEFAULT_GATE, LINEARIZATIONS, checks
 
 # Proximity beams in the active-SLAM observation, unless the options set them.
@@ -70,7 +69,7 @@ def _measurement_cov(name: str, value: Any) -> tuple[tuple[float, float], ...] |
 
 @dataclass(frozen=True)
 class ActiveSLAMOptions:
-    """The arguments of :class:`slam_env.active_slam.ActiveSLAMEnv` other than the
+    """The arguments of :class:`slam_env.envs.active_slam.ActiveSLAMEnv` other than the
     world's options, checked (see its docstring for their meaning)."""
 
     observation: str = "egocentric"
@@ -168,27 +167,3 @@ class ActiveSLAMOptions:
                 "noise-free sensor makes its innovation covariance singular; or give "
                 "filter_measurement_cov"
             )
-
-
-def active_config(
-    options: ActiveSLAMOptions, env_options: Mapping[str, Any], num_envs: int
-) -> EnvConfig:
-    """The world's config of ``ActiveSLAM-v0`` from its options (flat or nested, with
-    :data:`ACTIVE_SLAM_DEFAULTS`), checked with ``options`` against the resource budget
-    for ``num_envs`` sub-envs before anything is built."""
-    env_options = with_defaults(env_options, ACTIVE_SLAM_DEFAULTS)
-    config = make_config(env_options.pop("config", None), **env_options)
-    check_budget(
-        config,
-        world_size(config),
-        belief=options.observation,
-        coverage=options.coverage,
-        filter_alphas=options.filter_alphas,
-        filter_control_noise=options.filter_control_noise,
-        filter_measurement_cov=options.filter_measurement_cov,
-        reward_weights=vars(options.weights),
-        num_envs=num_envs,
-        association=options.data_association != "known",
-    )
-    options.check_against(config)
-    return config

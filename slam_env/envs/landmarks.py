@@ -6,17 +6,13 @@ from typing import Any
 
 import numpy as np
 
-from slam_env.budget import check_budget, world_size
-from slam_env.config import EnvConfig, check_option_names, make_config
-from slam_env.raw_core import RawCore
+from slam_env.config import EnvConfig
+from slam_env.envs.options import raw_core
+from slam_env.envs.single import CoreEnv
 from slam_env.sensing.landmark_sensor import LandmarkSensor
 from slam_env.sensing.odometry_sensor import OdometrySensor
-from slam_env.single_env import CoreEnv, check_reset_options
 
-__all__ = ["ENV_ARGUMENTS", "LandmarksEnv", "check_reset_options"]
-
-# The env's own arguments besides the config options (for the list of valid names).
-ENV_ARGUMENTS = ("config", "render_mode")
+__all__ = ["LandmarksEnv"]
 
 
 class LandmarksEnv(CoreEnv):
@@ -36,7 +32,7 @@ class LandmarksEnv(CoreEnv):
     (rad/s). Finite values outside [−1, 1] are clipped; a non-finite value or a wrong
     shape raises ``ValueError``. ``action_type="discrete"``: ``Discrete(7)`` motion
     primitives (stop, forward, forward-left, forward-right, turn left, turn right,
-    reverse), see :data:`slam_env.actions.DISCRETE_PRIMITIVES`.
+    reverse), see :data:`slam_env.envs.actions.DISCRETE_PRIMITIVES`.
 
     ## Observation Space
     A ``Dict`` of float32 arrays (``D = max_detections``, default one row per landmark):
@@ -97,12 +93,9 @@ class LandmarksEnv(CoreEnv):
     def __init__(
         self, render_mode: str | None = None, config: EnvConfig | None = None, **options: Any
     ) -> None:
-        check_option_names(options, ENV_ARGUMENTS)
-        config = make_config(config, **options)
-        # Everything that scales work or memory, before any of it is built.
-        check_budget(config, world_size(config))
         # A batch of one: the native vector env runs the same core for B sub-envs.
-        self._setup(RawCore(config, 1), render_mode)
+        self._setup(raw_core(1, {"config": config, **options}), render_mode)
+        config = self.config
         # The sensor models on their own, for users who sense this world themselves.
         self.sensor = LandmarkSensor(config.sensor)
         self.odometry = OdometrySensor(config.odometry)

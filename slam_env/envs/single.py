@@ -11,7 +11,7 @@ import numpy as np
 from gymnasium import spaces
 from gymnasium.error import ResetNeeded
 
-from slam_env.actions import DISCRETE_PRIMITIVES, parse_action
+from slam_env.envs.actions import DISCRETE_PRIMITIVES, parse_action
 from slam_env.world.layouts import Layout, as_floats, as_int
 from slam_env.world.pymunk_world import World
 
@@ -28,8 +28,8 @@ def check_reset_options(options: Any, env_name: str) -> None:
 
 
 class CoreEnv(gym.Env):
-    """A single env: sub-env 0 of a batched core (:class:`slam_env.raw_core.RawCore` or
-    :class:`slam_env.active_core.ActiveCore`) built with B = 1, the very code that the
+    """A single env: sub-env 0 of a batched core (:class:`slam_env.core.raw.RawCore` or
+    :class:`slam_env.core.active.ActiveCore`) built with B = 1, the very code that the
     native vector env runs for B sub-envs. Subclasses build the core and document the
     env; this class does the rest of Gymnasium's API: reset, step, render, close."""
 

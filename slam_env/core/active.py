@@ -19,7 +19,6 @@ from typing import Any, NamedTuple
 import numpy as np
 from gymnasium import spaces
 
-from slam_env.active_options import ActiveSLAMOptions
 from slam_env.belief.coverage import CoverageGrid
 from slam_env.belief.encodings import (
     PASSTHROUGH_KEYS,
@@ -32,6 +31,10 @@ from slam_env.belief.local_encoding import LocalEncoding
 from slam_env.belief.overlay import BeliefOverlay
 from slam_env.belief.reward import REWARD_TERMS
 from slam_env.config import EnvConfig
+from slam_env.core.active_options import ActiveSLAMOptions
+from slam_env.core.batch import BatchCore
+from slam_env.core.random_blocks import RandomBlocks
+from slam_env.core.raw import RawCore
 from slam_env.ekf import EKFSLAM
 from slam_env.ekf.batch import FilterBatch
 from slam_env.kernels.belief.active_step import belief_outputs, filter_step, step_reward
@@ -45,8 +48,6 @@ from slam_env.kernels.belief.diagnostics import (
 )
 from slam_env.kernels.belief.divergence import DIVERGENCE_REJECTIONS, diverged
 from slam_env.kernels.ekf.association_score import SCORE_NAMES
-from slam_env.random_blocks import RandomBlocks
-from slam_env.raw_core import BatchCore, RawCore
 from slam_env.world.layouts import Layout
 
 # Rows of the diagnostics kernel's output, by name.
@@ -167,7 +168,7 @@ class ActiveCore(BatchCore):
 
     def _observation_space(self, raw_space: spaces.Dict) -> spaces.Space:
         """The belief encoding's space with the raw proximity sensors' and the
-        coverage features' (see :class:`slam_env.active_slam.ActiveSLAMEnv`)."""
+        coverage features' (see :class:`slam_env.envs.active_slam.ActiveSLAMEnv`)."""
         extra = {k: raw_space[k] for k in self._passthrough}
         if self.coverage is not None:
             n = 1 + self.coverage.n_features

@@ -13,6 +13,8 @@ from typing import Any
 import numpy as np
 
 from slam_env.config import EnvConfig
+from slam_env.core.batch import BatchCore
+from slam_env.core.random_blocks import RandomBlocks
 from slam_env.kernels.base.pinning import pin
 from slam_env.kernels.stream.faults import (
     CLUTTER_UNIFORMS,
@@ -24,36 +26,12 @@ from slam_env.kernels.stream.observe import RawOutputs
 from slam_env.kernels.stream.odometry import odometry_uniforms
 from slam_env.kernels.stream.raw_step import raw_step
 from slam_env.kernels.stream.sensing import SensorParams, scan_uniforms, sensing_scratch
-from slam_env.random_blocks import RandomBlocks
 from slam_env.sensing.raw_observation import raw_observation_space
 from slam_env.world.layouts import Layout
 from slam_env.world.world_batch import WorldBatch
 
 # Spurious detections (the outlier fault) lie at least this far away, m.
 OUTLIER_MIN_RANGE = 0.5
-
-
-class BatchCore:
-    """What both batched cores offer on top of their ``advance``: one sub-env's reset,
-    and a step of some sub-envs."""
-
-    rngs: list[np.random.Generator | None]
-    _idle: np.ndarray  # (B, 2) zeros: the commands of sub-envs that only reset
-    _none: np.ndarray  # (B,) False: no sub-env steps
-
-    def advance(
-        self, commands: np.ndarray, stepping: np.ndarray, resetting: Sequence[int]
-    ) -> list[Layout]:
-        raise NotImplementedError
-
-    def reset(self, index: int, rng: np.random.Generator) -> Layout:
-        """Start sub-env ``index`` on a new episode, its randomness from ``rng``."""
-        self.rngs[index] = rng
-        return self.advance(self._idle, self._none, [index])[0]
-
-    def step(self, commands: np.ndarray, active: np.ndarray) -> None:
-        """One step of the active sub-envs (see :meth:`advance`)."""
-        self.advance(commands, active, ())
 
 
 class RawCore(BatchCore):

@@ -19,15 +19,13 @@ from gymnasium.utils import seeding
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
-from slam_env.actions import DISCRETE_PRIMITIVES, parse_actions
-from slam_env.active_core import ActiveCore
-from slam_env.active_options import ActiveSLAMOptions, active_config
-from slam_env.active_slam import _OWN_ARGUMENTS as ACTIVE_SLAM_ARGUMENTS
-from slam_env.budget import check_budget, world_size
-from slam_env.config import check_option_names, make_config
+from slam_env.core.active import ActiveCore
+from slam_env.core.active_options import ActiveSLAMOptions
+from slam_env.core.raw import RawCore
 from slam_env.ekf import EKFSLAM
-from slam_env.raw_core import RawCore
-from slam_env.registration import DEFAULT_MAX_EPISODE_STEPS
+from slam_env.envs.actions import DISCRETE_PRIMITIVES, parse_actions
+from slam_env.envs.options import active_core, raw_core
+from slam_env.envs.registration import DEFAULT_MAX_EPISODE_STEPS
 
 AUTORESET_MODES = (AutoresetMode.NEXT_STEP, AutoresetMode.SAME_STEP)
 
@@ -72,7 +70,7 @@ class SlamVectorEnv(VectorEnv):
     Args:
         num_envs: B.
         core_factory: ``(config, num_envs, **env_options) -> core``, the batched core of
-            the ID (:class:`slam_env.raw_core.RawCore` for ``Landmarks-v0``).
+            the ID (:class:`slam_env.core.raw.RawCore` for ``Landmarks-v0``).
         max_episode_steps: truncation, as ``gym.make``'s ``TimeLimit`` does for the single
             env (``None``: never).
         autoreset_mode: ``AutoresetMode.NEXT_STEP`` (default: a sub-env that ended is
@@ -286,17 +284,13 @@ class SlamVectorEnv(VectorEnv):
         return state
 
 
-def _raw_core(num_envs: int, config: Any = None, **options: Any) -> RawCore:
-    check_option_names(options, ("config",))
-    config = make_config(config, **options)
-    # Everything that scales work or memory, for all the sub-envs, before it is built.
-    check_budget(config, world_size(config), num_envs=num_envs)
-    return RawCore(config, num_envs)
+def _raw_core(num_envs: int, **options: Any) -> RawCore:
+    return raw_core(num_envs, options)
 
 
 class LandmarksVectorEnv(SlamVectorEnv):
     """The native vector env of ``slam_env/Landmarks-v0`` (see :class:`SlamVectorEnv`;
-    the sub-envs are :class:`slam_env.env.LandmarksEnv`)."""
+    the sub-envs are :class:`slam_env.envs.landmarks.LandmarksEnv`)."""
 
     def __init__(self, num_envs: int, **kwargs: Any) -> None:
         super().__init__(num_envs, _raw_core, **kwargs)
@@ -304,14 +298,12 @@ class LandmarksVectorEnv(SlamVectorEnv):
 
 def _active_core(num_envs: int, **options: Any) -> ActiveCore:
     own = {k: options.pop(k) for k in ActiveSLAMOptions.argument_names() if k in options}
-    active = ActiveSLAMOptions(**own)
-    check_option_names(options, ("config", *ACTIVE_SLAM_ARGUMENTS))
-    return ActiveCore(active_config(active, options, num_envs), num_envs, active)
+    return active_core(num_envs, ActiveSLAMOptions(**own), options)
 
 
 class ActiveSLAMVectorEnv(SlamVectorEnv):
     """The native vector env of ``slam_env/ActiveSLAM-v0`` (see :class:`SlamVectorEnv`;
-    the sub-envs are :class:`slam_env.active_slam.ActiveSLAMEnv`, with the same
+    the sub-envs are :class:`slam_env.envs.active_slam.ActiveSLAMEnv`, with the same
     options)."""
 
     def __init__(self, num_envs: int, **kwargs: Any) -> None:

@@ -1,0 +1,35 @@
+"""What both batched cores (:mod:`.raw`, :mod:`.active`) offer on top of their
+``advance``."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+from slam_env.world.layouts import Layout
+
+__all__ = ["BatchCore"]
+
+
+class BatchCore:
+    """What both batched cores offer on top of their ``advance``: one sub-env's reset,
+    and a step of some sub-envs."""
+
+    rngs: list[np.random.Generator | None]
+    _idle: np.ndarray  # (B, 2) zeros: the commands of sub-envs that only reset
+    _none: np.ndarray  # (B,) False: no sub-env steps
+
+    def advance(
+        self, commands: np.ndarray, stepping: np.ndarray, resetting: Sequence[int]
+    ) -> list[Layout]:
+        raise NotImplementedError
+
+    def reset(self, index: int, rng: np.random.Generator) -> Layout:
+        """Start sub-env ``index`` on a new episode, its randomness from ``rng``."""
+        self.rngs[index] = rng
+        return self.advance(self._idle, self._none, [index])[0]
+
+    def step(self, commands: np.ndarray, active: np.ndarray) -> None:
+        """One step of the active sub-envs (see :meth:`advance`)."""
+        self.advance(commands, active, ())

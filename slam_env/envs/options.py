@@ -1,0 +1,64 @@
+"""What the envs do with their options before anything is built: check the names, make
+the config, check it against the resource budget (:mod:`slam_env.budget`), and build the
+batched core, for B sub-envs (the single envs are B = 1 of the same call)."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+from slam_env.budget import check_budget, world_size
+from slam_env.config import EnvConfig, check_option_names, make_config, with_defaults
+from slam_env.core.active import ActiveCore
+from slam_env.core.active_options import ACTIVE_SLAM_DEFAULTS, ActiveSLAMOptions
+from slam_env.core.raw import RawCore
+
+__all__ = ["ACTIVE_ARGUMENTS", "ENV_ARGUMENTS", "active_config", "active_core", "raw_core"]
+
+# The envs' own arguments besides the config options (for the list of valid names).
+ENV_ARGUMENTS = ("config", "render_mode")
+ACTIVE_ARGUMENTS = ENV_ARGUMENTS + ActiveSLAMOptions.argument_names()
+
+
+def raw_core(num_envs: int, options: Mapping[str, Any]) -> RawCore:
+    """The raw core of ``num_envs`` sub-envs of ``slam_env/Landmarks-v0`` with
+    ``options`` (the config's, flat or nested, or a whole ``config``), checked first."""
+    check_option_names(options, ENV_ARGUMENTS)
+    options = dict(options)
+    config = make_config(options.pop("config", None), **options)
+    # Everything that scales work or memory, for all the sub-envs, before it is built.
+    check_budget(config, world_size(config), num_envs=num_envs)
+    return RawCore(config, num_envs)
+
+
+def active_core(
+    num_envs: int, options: ActiveSLAMOptions, env_options: Mapping[str, Any]
+) -> ActiveCore:
+    """The active-SLAM core of ``num_envs`` sub-envs of ``slam_env/ActiveSLAM-v0`` with
+    its own ``options`` and the world's ``env_options``, checked first."""
+    check_option_names(env_options, ACTIVE_ARGUMENTS)
+    return ActiveCore(active_config(options, env_options, num_envs), num_envs, options)
+
+
+def active_config(
+    options: ActiveSLAMOptions, env_options: Mapping[str, Any], num_envs: int
+) -> EnvConfig:
+    """The world's config of ``ActiveSLAM-v0`` from its options (flat or nested, with
+    :data:`ACTIVE_SLAM_DEFAULTS`), checked with ``options`` against the resource budget
+    for ``num_envs`` sub-envs before anything is built."""
+    env_options = with_defaults(env_options, ACTIVE_SLAM_DEFAULTS)
+    config = make_config(env_options.pop("config", None), **env_options)
+    check_budget(
+        config,
+        world_size(config),
+        belief=options.observation,
+        coverage=options.coverage,
+        filter_alphas=options.filter_alphas,
+        filter_control_noise=options.filter_control_noise,
+        filter_measurement_cov=options.filter_measurement_cov,
+        reward_weights=vars(options.weights),
+        num_envs=num_envs,
+        association=options.data_association != "known",
+    )
+    options.check_against(config)
+    return config
