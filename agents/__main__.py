@@ -1,5 +1,5 @@
 """``python -m agents``: the ``slam-env`` command."""
 
-from agents.cli import main
+from agents.cli.main import main
 
 raise SystemExit(main())

@@ -1,19 +1,19 @@
-"""Agents by name, and the env they act on.
+"""Agents by name.
 
 An agent spec is a short string, as the command line takes it:
 
-| spec         | agent                                                              |
-|--------------|--------------------------------------------------------------------|
-| ``random``   | :class:`agents.base.RandomAgent`: uniform random actions            |
-| ``frontier`` | :class:`agents.frontier.FrontierAgent`: drives to the belief's frontier |
-| ``infogain`` | :class:`agents.infogain.InfoGainAgent`: greedy expected information gain |
-| ``ppo``      | the shipped PPO policy, ``agents/policies/ppo_active_slam.zip``      |
-| ``ppo:PATH`` | a PPO policy saved by ``slam-env train`` (a stable-baselines3 ``.zip``) |
-| ``rllib:PATH`` | an RLlib checkpoint saved by ``slam-env train --engine rllib`` (a folder) |
-| ``goals``    | the shipped goal-choosing policy, ``agents/policies/goal_explore.zip`` |
-| ``goals:PATH`` | a goal-choosing policy (:mod:`agents.goal_choice`), ``decisions: goals`` |
-| ``lookahead`` | ``goals``, looking ahead in worlds drawn from the belief (agents.lookahead) |
-| ``lookahead:PATH`` | the lookahead around the goal-choosing policy at PATH |
+| spec               | agent                                                           |
+|--------------------|-----------------------------------------------------------------|
+| ``random``         | :class:`agents.common.base.RandomAgent`: uniform random actions |
+| ``frontier``       | :class:`agents.planners.frontier.FrontierAgent`: the frontier   |
+| ``infogain``       | :class:`agents.planners.infogain.InfoGainAgent`: greedy info    |
+| ``ppo``            | the shipped PPO policy, ``agents/policies/ppo_active_slam.zip`` |
+| ``ppo:PATH``       | a PPO policy saved by ``slam-env train`` (an SB3 ``.zip``)      |
+| ``rllib:PATH``     | an RLlib checkpoint of ``slam-env train --engine rllib``        |
+| ``goals``          | the shipped goal policy, ``agents/policies/goal_explore.zip``   |
+| ``goals:PATH``     | a goal-choosing policy (:mod:`agents.goals.choice`)             |
+| ``lookahead``      | ``goals`` looking ahead in worlds drawn from the belief         |
+| ``lookahead:PATH`` | the lookahead around the goal-choosing policy at PATH           |
 
 Heuristic agents are imported only when asked for, so that one agent's import cost
 (or absence) never affects another.
@@ -23,16 +23,10 @@ from __future__ import annotations
 
 import importlib
 from pathlib import Path
-from typing import Any
 
 import gymnasium as gym
 
-from agents.arguments import check_count
-from agents.base import Agent, RandomAgent
-
-#: The env every agent acts on; the ``module:`` prefix imports ``slam_env`` (which
-#: registers it) in a fresh process, such as a ``SubprocVecEnv`` worker.
-ENV_ID = "slam_env:slam_env/ActiveSLAM-v0"
+from agents.common.base import Agent, RandomAgent
 
 #: The PPO policy shipped with the package (written by the lead after training).
 SHIPPED_POLICY = Path(__file__).resolve().parent / "policies" / "ppo_active_slam.zip"
@@ -41,8 +35,8 @@ SHIPPED_GOAL_POLICY = SHIPPED_POLICY.with_name("goal_explore.zip")
 
 # name -> (module, class): imported lazily by make_agent.
 _HEURISTICS: dict[str, tuple[str, str]] = {
-    "frontier": ("agents.frontier", "FrontierAgent"),
-    "infogain": ("agents.infogain", "InfoGainAgent"),
+    "frontier": ("agents.planners.frontier", "FrontierAgent"),
+    "infogain": ("agents.planners.infogain", "InfoGainAgent"),
 }
 
 AGENT_NAMES = (
@@ -56,31 +50,6 @@ AGENT_NAMES = (
     "lookahead",
     "lookahead:PATH",
 )
-
-
-def make_env(
-    env_options: dict[str, Any] | None = None,
-    max_steps: int | None = None,
-    render_mode: str | None = None,
-) -> gym.Env:
-    """``gym.make`` the active-SLAM env with ``env_options`` (keyword options of
-    :class:`slam_env.envs.active_slam.ActiveSLAMEnv`) and an optional episode length.
-
-    Raises ``ValueError`` naming the bad option (the env raises ``TypeError`` for
-    unknown options; a command line reports both the same way).
-    """
-    options = dict(env_options or {})
-    for reserved in ("render_mode", "max_episode_steps"):
-        if reserved in options:
-            raise ValueError(f"env option {reserved!r} is set by the caller, not in env_options")
-    kwargs: dict[str, Any] = {}
-    if max_steps is not None:
-        check_count("max_steps", max_steps, 1)
-        kwargs["max_episode_steps"] = max_steps
-    try:
-        return gym.make(ENV_ID, render_mode=render_mode, **kwargs, **options)
-    except TypeError as exc:
-        raise ValueError(f"bad env options {options}: {exc}") from exc
 
 
 def agent_label(spec: str) -> str:
@@ -134,7 +103,7 @@ def make_agent(spec: str, env: gym.Env, seed: int | None = None) -> Agent:
     if spec in _HEURISTICS:
         return _import_heuristic(spec)(env, seed=seed)
     if spec == "ppo" or spec.startswith("ppo:"):
-        from agents.ppo import load_ppo_agent
+        from agents.learning.ppo_agent import load_ppo_agent
 
         if spec == "ppo":
             if not SHIPPED_POLICY.is_file():
@@ -148,7 +117,7 @@ def make_agent(spec: str, env: gym.Env, seed: int | None = None) -> Agent:
             raise ValueError("agent spec 'ppo:' needs a path, e.g. 'ppo:runs/ppo/model.zip'")
         return load_ppo_agent(path, env)
     if spec.startswith("rllib:"):
-        from agents.rllib_agent import load_rllib_agent
+        from agents.learning.rllib.agent import load_rllib_agent
 
         path = spec[6:].strip()
         if not path:
@@ -169,12 +138,12 @@ def make_agent(spec: str, env: gym.Env, seed: int | None = None) -> Agent:
 
 def _goal_agent(kind: str, path: str | Path, env: gym.Env, seed: int | None) -> Agent:
     """The goal-choosing policy at ``path``, with a lookahead around it for
-    ``lookahead`` (:func:`agents.lookahead.with_lookahead`)."""
-    from agents.goal_training import load_goal_agent
+    ``lookahead`` (:func:`agents.goals.lookahead.with_lookahead`)."""
+    from agents.learning.sb3.goal_training import load_goal_agent
 
     agent = load_goal_agent(path, env, seed=seed)
     if kind == "lookahead":
-        from agents.lookahead import with_lookahead
+        from agents.goals.lookahead import with_lookahead
 
         agent = with_lookahead(agent, env, seed=seed)
     return agent

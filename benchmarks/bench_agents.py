@@ -4,7 +4,7 @@
 
 1. ``dijkstra`` on the default world's planning grid (16 m arena, 0.25 m cells, the
    frontier agent's obstacle-proximity costs, from the robot's start): the compiled
-   search (:mod:`agents.search_kernel`) against the plain Python one it replaced
+   search (:mod:`agents.planners.search_kernel`) against the plain Python one it replaced
    (``benchmarks/dijkstra_reference.py``), side by side, ms per search.
 2. Exploration episodes of the default world (500 steps, seeds 0..) for ``frontier``,
    ``infogain`` and the shipped ``goals`` policy: seconds per episode, and the same
@@ -25,13 +25,14 @@ from unittest import mock
 import numpy as np
 from dijkstra_reference import reference_dijkstra
 
-import agents.frontier
-import agents.infogain
-from agents.arguments import positive_int
-from agents.evaluation import run_episode
-from agents.exploration_memory import ExplorationMemory
-from agents.grid_search import dijkstra
-from agents.registry import make_agent, make_env
+import agents.planners.frontier
+import agents.planners.infogain
+from agents.common.arguments import positive_int
+from agents.common.env import make_env
+from agents.planners.exploration_memory import ExplorationMemory
+from agents.planners.grid_search import dijkstra
+from agents.registry import make_agent
+from agents.rollouts.episodes import run_episode
 
 AGENTS = ("frontier", "infogain", "goals")
 
@@ -91,7 +92,7 @@ def episode_time(spec: str, episodes: int, repeats: int, python_search: bool) ->
 
     patches = [
         mock.patch.object(m, "dijkstra", reference_dijkstra)
-        for m in (agents.frontier, agents.infogain)
+        for m in (agents.planners.frontier, agents.planners.infogain)
     ]
     if python_search:
         for p in patches:

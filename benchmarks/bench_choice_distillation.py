@@ -6,7 +6,7 @@ episodes, and weigh those choices with the held-out labels.
         [--test-share 0.33] [--seed 0] [--epochs 200]
 
 The labels are the choices ``bench_choice_oracle.py --labels`` saved: the
-:func:`~agents.goal_choice.choice_features` of a choice and, for each exploring choice
+:func:`~agents.goals.choice.choice_features` of a choice and, for each exploring choice
 (the three frontier weightings), the mean steps from it to 90% of the landmarks mapped
 in the worlds the lookahead drew. The episodes (their seeds) are split at random, a
 share held out. Fitted on the rest: each choice's cost less that of the base's own
@@ -35,8 +35,8 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from agents.arguments import non_negative_int, positive_int
-from agents.goal_choice import CHOICES
+from agents.common.arguments import non_negative_int, positive_int
+from agents.goals.choice import CHOICES
 
 RIDGE_STRENGTHS = (1.0, 10.0, 100.0, 1000.0)
 HIDDEN = 64

@@ -5,16 +5,16 @@ hindsight or from the belief, beside ``frontier``, on one setting of the suite.
         [--world hindsight|belief] [--samples 4] [--seed 10000] [--base rule|goals|goals:PATH]
         [--labels PATH.npz] [--endgame 0]
 
-The lookahead is :mod:`agents.lookahead`'s (the ``lookahead`` agent is this one with
+The lookahead is :mod:`agents.goals.lookahead`'s (the ``lookahead`` agent is this one with
 ``--world belief --samples 4 --base goals --endgame 2``): at every choice
-of a :class:`~agents.goal_choice.GoalChoiceAgent` made before 90% of the landmarks
+of a :class:`~agents.goals.choice.GoalChoiceAgent` made before 90% of the landmarks
 are mapped, each exploring choice (the three frontier weightings) is tried on a copy
 of the env and the agent, the base policy choosing after it, up to the step at which
 90% are mapped, and the one that gets there soonest is taken (the base's own on a
 tie); the base's other choices are left alone. With ``--endgame N`` it also chooses
 after 90% is mapped, by the final entropy of tries of the revisits, a loop closure
 and the least-known landmark. The base is ``rule``
-(:class:`~agents.goal_imitation.LoopClosingRule` with loop closures from a pose σ of
+(:class:`~agents.learning.goal_imitation.LoopClosingRule` with loop closures from a pose σ of
 0.4 m until below 0.2 m, the frontier agent's own rule) or a goal-choosing policy
 (``goals``: the shipped one).
 
@@ -24,7 +24,7 @@ and the least-known landmark. The base is ``rule``
 * ``belief``: ``--samples`` copies per choice (the same ones for every choice), the
   robot and the mapped landmarks drawn from the belief, the landmarks not yet mapped
   drawn uniformly over the unswept free area, and the noise drawn afresh
-  (:func:`~agents.lookahead.draw_belief_world`): what looking ahead from the belief
+  (:func:`~agents.goals.lookahead.draw_belief_world`): what looking ahead from the belief
   finds.
 
 Prints, per agent, the means of steps to 90% mapped, final entropy, collisions per
@@ -46,14 +46,15 @@ from pathlib import Path
 import gymnasium as gym
 import numpy as np
 
-from agents.arguments import non_negative_int, positive_int
-from agents.evaluation import run_episode
-from agents.goal_choice import N_FEATURES, GoalChoiceAgent
-from agents.goal_imitation import LoopClosingRule
-from agents.lookahead import EXPLORING, Label, with_lookahead
-from agents.registry import make_agent, make_env
-from agents.suite import SUITE_SEED, SuiteSetting, suite_settings
-from agents.suite_metrics import suite_metrics
+from agents.common.arguments import non_negative_int, positive_int
+from agents.common.env import make_env
+from agents.evaluation.suite import SUITE_SEED, SuiteSetting, suite_settings
+from agents.goals.choice import N_FEATURES, GoalChoiceAgent
+from agents.goals.lookahead import EXPLORING, Label, with_lookahead
+from agents.learning.goal_imitation import LoopClosingRule
+from agents.registry import make_agent
+from agents.rollouts.episodes import run_episode
+from agents.rollouts.suite_metrics import suite_metrics
 
 METRICS = ("steps_to_90", "final_entropy", "collisions_per_100", "mapped_share")
 #: The choices after each try, and the loop closures: the frontier agent's own rule.
@@ -65,7 +66,7 @@ def lookahead_agent(
 ) -> GoalChoiceAgent:
     """The lookahead over ``base`` (``rule``, or a goal-choosing agent spec such as
     ``goals``) acting on ``env``, with ``endgame`` worlds per choice once 90% are
-    mapped, recording the choices it weighs (:class:`~agents.lookahead.Lookahead`)."""
+    mapped, recording the choices it weighs (:class:`~agents.goals.lookahead.Lookahead`)."""
     if base == "rule":
         agent = GoalChoiceAgent(env, RULE, seed=seed)
     else:

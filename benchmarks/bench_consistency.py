@@ -72,10 +72,10 @@ from ideal_ekf import IdealEKF
 from smoother import Episode, smooth
 
 import slam_env  # noqa: F401  (registers the env IDs)
-from agents.arguments import non_negative_int, positive_int
-from agents.grid_map import GridMap
-from agents.grid_search import astar, nearest_passable
-from agents.path_control import ControllerParams, PathFollower
+from agents.common.arguments import non_negative_int, positive_int
+from agents.planners.grid_map import GridMap
+from agents.planners.grid_search import astar, nearest_passable
+from agents.planners.path_control import ControllerParams, PathFollower
 from slam_env.belief.metrics import map_rmse, nees, nees_band, pose_error, share_in_nees_band
 from slam_env.config import make_config
 from slam_env.ekf import DEFAULT_GATE, EKFSLAM, LINEARIZATIONS, UpdateResult

@@ -19,7 +19,7 @@ import time
 
 import numpy as np
 
-from agents.arguments import positive_int
+from agents.common.arguments import positive_int
 from slam_env.belief.coverage import CoverageGrid
 from slam_env.config import SensorConfig
 

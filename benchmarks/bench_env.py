@@ -25,7 +25,7 @@ from typing import Any
 import gymnasium as gym
 
 import slam_env  # noqa: F401  (registers the env IDs)
-from agents.arguments import positive_int
+from agents.common.arguments import positive_int
 from slam_env.envs.active_slam import DEFAULT_SCAN_BEAMS
 
 VECTOR_IDS = {"Landmarks": "slam_env/Landmarks-v0", "ActiveSLAM": "slam_env/ActiveSLAM-v0"}

@@ -45,7 +45,7 @@ from functools import partial
 from pathlib import Path
 from typing import Any
 
-from agents.arguments import non_negative_int, positive_int  # argparse only: no numpy yet
+from agents.common.arguments import non_negative_int, positive_int  # argparse only: no numpy yet
 
 ROOT = Path(__file__).resolve().parents[1]
 ALPHAS = (0.01, 0.005, 0.01, 0.005)

@@ -21,7 +21,7 @@ from collections.abc import Callable
 import numpy as np
 import pymunk
 
-from agents.arguments import positive_int
+from agents.common.arguments import positive_int
 from slam_env.config import RobotConfig, WorldConfig
 from slam_env.kernels.world.raycast import lines_of_sight, ray_fractions
 from slam_env.kernels.world.static_geometry import empty_geometry

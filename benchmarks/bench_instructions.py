@@ -32,7 +32,7 @@ import subprocess
 import sys
 from concurrent.futures import ThreadPoolExecutor
 
-from agents.arguments import positive_int
+from agents.common.arguments import positive_int
 from slam_env.envs.active_slam import DEFAULT_SCAN_BEAMS
 
 # Count only inside sys.call_tracing, which the child calls once, around the counted

@@ -26,9 +26,9 @@ import statistics
 import time
 from typing import Any
 
-from agents.arguments import positive_int
-from agents.train_config import load_config
-from agents.training import make_train_vec_env
+from agents.common.arguments import positive_int
+from agents.learning.config import load_config
+from agents.learning.sb3.runs import make_train_vec_env
 
 
 def sb3_sampler(cfg: Any, steps: int) -> Any:
@@ -61,8 +61,8 @@ def sb3_sampler(cfg: Any, steps: int) -> Any:
 
 def rllib_algo(cfg: Any, runners: int) -> Any:
     """An RLlib PPO of ``slam-env train --engine rllib`` with ``runners`` EnvRunners."""
-    from agents.rllib_config import RLlibSettings, ppo_config
-    from agents.rllib_env import register_rllib_envs
+    from agents.learning.rllib.config import RLlibSettings, ppo_config
+    from agents.learning.rllib.env import register_rllib_envs
 
     register_rllib_envs()
     return ppo_config(cfg, RLlibSettings(num_env_runners=runners)).build_algo()
@@ -96,7 +96,7 @@ def main(argv: list[str] | None = None) -> None:
 
     import ray
 
-    from agents.rllib_training import stop_algorithm
+    from agents.learning.rllib.training import stop_algorithm
 
     cfg = load_config(checkpoint_freq=0, eval_freq=0, progress_bar=False, n_envs=args.n_envs)
     ray.init(num_cpus=2, include_dashboard=False, log_to_driver=False)

@@ -24,8 +24,8 @@ from pathlib import Path
 
 import yaml
 
-from agents.arguments import positive_int
-from agents.train_config import load_config
+from agents.common.arguments import positive_int
+from agents.learning.config import load_config
 
 # label -> (vectorization, n_envs)
 MODES = {

@@ -3,10 +3,10 @@
     .venv/bin/python benchmarks/bench_train_metrics.py [--steps 4096] [--repeats 3]
                      [--n-envs 1] [--skip-training]
 
-Part 1 runs ``agents.training.train`` with the default config
+Part 1 runs ``agents.learning.sb3.training.train`` with the default config
 (``agents/configs/ppo_default.yaml``; no checkpoints, no evaluation, no progress bar)
 for ``--steps`` env steps at a time, in turns with the SLAM metrics and without them
-(:class:`agents.slam_callbacks.SlamMetricsCallback` swapped for a callback that does
+(:class:`agents.learning.sb3.callbacks.SlamMetricsCallback` swapped for a callback that does
 nothing), in ABBA order, so that a slow spell of a shared machine hits both sides. The
 same seed gives both sides the same episodes. It reports each side's steps/s in wall
 time (the learning loop, as ``training_summary.json`` has it) and in the CPU time of
@@ -16,7 +16,7 @@ inside the callback.
 
 Part 2 times the callback's per-step work alone on synthetic step infos of B sub-envs:
 plain dicts (``DummyVecEnv``/``SubprocVecEnv``) and the lazy rows of a native vector
-env (:class:`agents.sb3_vector.InfoRow`, read in one go), in µs of CPU per env-step.
+env (:class:`agents.common.info_rows.InfoRow`, read in one go), in µs of CPU per env-step.
 
 Part 3 (``--instructions``; needs valgrind) counts with callgrind, as
 ``bench_instructions.py`` does, the instructions of the callback's step on a real
@@ -38,7 +38,7 @@ from typing import Any
 
 import numpy as np
 
-from agents.arguments import non_negative_int, positive_int
+from agents.common.arguments import non_negative_int, positive_int
 
 
 class _Spent:
@@ -50,7 +50,7 @@ class _Spent:
 def _callback_classes() -> dict[str, type]:
     from stable_baselines3.common.callbacks import BaseCallback
 
-    from agents.slam_callbacks import SlamMetricsCallback
+    from agents.learning.sb3.callbacks import SlamMetricsCallback
 
     class Timed(SlamMetricsCallback):
         def _on_step(self) -> bool:
@@ -68,9 +68,9 @@ def _callback_classes() -> dict[str, type]:
 
 
 def training_rates(steps: int, repeats: int, n_envs: int) -> dict[str, Any]:
-    import agents.slam_callbacks as slam_callbacks
-    from agents.train_config import load_config
-    from agents.training import train
+    import agents.learning.sb3.callbacks as slam_callbacks
+    from agents.learning.config import load_config
+    from agents.learning.sb3.training import train
 
     original = slam_callbacks.SlamMetricsCallback
     classes = _callback_classes()
@@ -131,7 +131,7 @@ def step_callback(b: int) -> Any:
     """A SlamMetricsCallback of B sub-envs, ready to step without a model."""
     from types import SimpleNamespace
 
-    from agents.slam_callbacks import SlamMetricsCallback
+    from agents.learning.sb3.callbacks import SlamMetricsCallback
 
     env = SimpleNamespace(num_envs=b)
     callback = SlamMetricsCallback()
@@ -141,7 +141,7 @@ def step_callback(b: int) -> Any:
 
 def per_step_costs(sizes: list[int], seconds: float = 0.5) -> list[tuple[str, int, float]]:
     """(infos, B, µs of CPU per env-step) of the callback's step (no episode ends)."""
-    from agents.sb3_vector import InfoRow
+    from agents.common.info_rows import InfoRow
 
     rng = np.random.default_rng(0)
     rows = []
@@ -165,7 +165,7 @@ _CALLBACK_CHILD = """
 import gymnasium as gym
 import numpy as np
 import slam_env
-from agents.sb3_vector import InfoRow
+from agents.common.info_rows import InfoRow
 from bench_train_metrics import step_callback
 b, rows, steps = {b}, {rows!r}, {steps}
 env = gym.make("slam_env/ActiveSLAM-v0")

@@ -1,5 +1,5 @@
-"""The plain Python Dijkstra that :func:`agents.grid_search.dijkstra` ran before its
-inner loop was compiled (:mod:`agents.search_kernel`): the reference the tests hold the
+"""The plain Python Dijkstra that :func:`agents.planners.grid_search.dijkstra` ran before its
+inner loop was compiled (:mod:`agents.planners.search_kernel`): the reference the tests hold the
 kernel to, bit for bit, and the baseline of ``bench_agents.py``."""
 
 from __future__ import annotations
@@ -11,7 +11,7 @@ import numpy as np
 
 
 def reference_dijkstra(passable, sources, resolution=1.0, cell_cost=None, max_cost=math.inf):
-    """(dist, parent) as :func:`agents.grid_search.dijkstra` returns them, computed by
+    """(dist, parent) as :func:`agents.planners.grid_search.dijkstra` returns them, computed by
     heapq over (distance, cell) tuples on Python lists."""
     ny, nx = passable.shape
     w = nx + 2

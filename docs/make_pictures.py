@@ -17,8 +17,8 @@ import shutil
 import tempfile
 from pathlib import Path
 
-from agents.demo import demo
-from agents.evaluation import evaluate
+from agents.evaluation.compare import evaluate
+from agents.evaluation.demo import demo
 
 GIF_STEPS = 200
 GIF_FRAMES = 26  # every 8th step: a picture that stays well under 300 KB

@@ -9,11 +9,11 @@ import math
 import numpy as np
 import pytest
 
-from agents.evaluation import run_episode
-from agents.goal_choice import GoalChoiceAgent
-from agents.lookahead import EXPLORING, Label
-from agents.registry import make_env
-from agents.suite_metrics import suite_metrics
+from agents.common.env import make_env
+from agents.goals.choice import GoalChoiceAgent
+from agents.goals.lookahead import EXPLORING, Label
+from agents.rollouts.episodes import run_episode
+from agents.rollouts.suite_metrics import suite_metrics
 from benchmarks.bench_choice_oracle import RULE, lookahead_agent, main, report, save_labels
 
 SMALL = {"width": 8.0, "height": 8.0, "n_landmarks": 10, "n_obstacles": 2}

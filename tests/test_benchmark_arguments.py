@@ -1,6 +1,6 @@
 """Every benchmark refuses a count out of range as a usage error (exit 2, the flag
 named, no traceback) before it runs anything: the counts go through the argparse types
-of ``agents.arguments``, which ``slam-env`` uses too."""
+of ``agents.common.arguments``, which ``slam-env`` uses too."""
 
 from __future__ import annotations
 
@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-from agents.arguments import int_at_least, non_negative_int, positive_int
+from agents.common.arguments import int_at_least, non_negative_int, positive_int
 
 BENCHMARKS = Path(__file__).resolve().parents[1] / "benchmarks"
 

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 import slam_env  # noqa: F401  (registers the env IDs)
-from agents.base import RandomAgent
+from agents.common.base import RandomAgent
 
 ENV_ID = "slam_env/ActiveSLAM-v0"
 #: Fixed seeds of the default world (a new random world per seed) for the thresholds.

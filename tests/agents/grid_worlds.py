@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from agents.grid_map import GridMap
+from agents.planners.grid_map import GridMap
 from slam_env.world.layouts import Layout
 
 ROBOT_INFLATION = 0.35  # m: robot radius 0.25 + margin

@@ -13,11 +13,12 @@ import imageio.v3 as iio
 import pytest
 import yaml
 
-import agents.demo as demo_module
+import agents.evaluation.demo as demo_module
 import slam_env
-from agents.base import RandomAgent
-from agents.cli import _env_option, main
-from agents.registry import agent_label, make_agent, make_env, parse_agent_specs
+from agents.cli.main import _env_option, main
+from agents.common.base import RandomAgent
+from agents.common.env import make_env
+from agents.registry import agent_label, make_agent, parse_agent_specs
 
 SMALL = ["n_landmarks=5", "width=8.0", "height=8.0", "n_obstacles=1"]
 SMALL_ARGS = [arg for option in SMALL for arg in ("--env-option", option)]
@@ -242,16 +243,16 @@ def test_a_garbage_policy_file_is_a_usage_error(tmp_path, capsys):
 def test_an_unwritable_out_is_refused_before_anything_runs(
     command, where, tmp_path, capsys, monkeypatch
 ):
-    import agents.demo
-    import agents.evaluation
-    import agents.training
+    import agents.evaluation.compare
+    import agents.evaluation.demo
+    import agents.learning.sb3.training
 
     def ran(*args, **kwargs):
         raise AssertionError("ran before checking --out")
 
-    monkeypatch.setattr(agents.evaluation, "evaluate", ran)
-    monkeypatch.setattr(agents.demo, "demo", ran)
-    monkeypatch.setattr(agents.training, "train", ran)
+    monkeypatch.setattr(agents.evaluation.compare, "evaluate", ran)
+    monkeypatch.setattr(agents.evaluation.demo, "demo", ran)
+    monkeypatch.setattr(agents.learning.sb3.training, "train", ran)
     (tmp_path / "file").write_text("")
     out = str(tmp_path / "file" / "out") if where == "under-a-file" else "/proc/slam_env_out"
     argv = {

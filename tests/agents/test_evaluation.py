@@ -12,19 +12,12 @@ from statistics import NormalDist
 import numpy as np
 import pytest
 
-from agents.base import RandomAgent
-from agents.evaluation import (
-    METRICS,
-    STEP_COLUMNS,
-    EpisodeRecord,
-    episode_columns,
-    evaluate,
-    mean_ci,
-    run_episode,
-    summary_columns,
-    t_quantile,
-)
-from agents.registry import make_env
+from agents.common.base import RandomAgent
+from agents.common.env import make_env
+from agents.evaluation.compare import STEP_COLUMNS, episode_columns, evaluate, summary_columns
+from agents.evaluation.statistics import mean_ci, t_quantile
+from agents.rollouts.episodes import run_episode
+from agents.rollouts.records import METRICS, EpisodeRecord
 from slam_env.belief.metrics import averaged_nees, nees_band
 
 SMALL_WORLD = {"n_landmarks": 6, "width": 8.0, "height": 8.0, "n_obstacles": 1}
@@ -281,7 +274,7 @@ def test_an_episode_without_a_mapped_landmark_has_no_map_error():
 
 
 def test_the_episode_memory_budget_is_checked_at_its_edge():
-    from agents.evaluation import STEP_BYTES_KEPT, STEP_BYTES_RUNNING, check_episode_memory
+    from agents.rollouts.records import STEP_BYTES_KEPT, STEP_BYTES_RUNNING, check_episode_memory
     from slam_env.budget import MAX_MEMORY_BYTES
 
     steps = 499

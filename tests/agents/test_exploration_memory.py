@@ -1,8 +1,8 @@
-"""What an exploring agent keeps through an episode (agents.exploration_memory)."""
+"""What an exploring agent keeps through an episode (agents.planners.exploration_memory)."""
 
 from __future__ import annotations
 
-from agents.exploration_memory import StuckDetector
+from agents.planners.exploration_memory import StuckDetector
 
 
 def test_stuck_detector_fires_only_when_commanded_motion_does_not_happen():

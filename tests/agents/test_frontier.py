@@ -8,9 +8,9 @@ import gymnasium as gym
 import numpy as np
 import pytest
 
-from agents.base import Agent
-from agents.frontier import EXPLORE, LOCALISE, POCKET_AREA, FrontierAgent, FrontierParams
-from agents.goal_choice import GoalChoiceAgent
+from agents.common.base import Agent
+from agents.goals.choice import GoalChoiceAgent
+from agents.planners.frontier import EXPLORE, LOCALISE, POCKET_AREA, FrontierAgent, FrontierParams
 from tests.agents.exploration_runs import (
     ENV_ID,
     assert_beats_random_on_default_episodes,

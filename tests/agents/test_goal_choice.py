@@ -11,22 +11,23 @@ import pytest
 import yaml
 from gymnasium.utils.env_checker import check_env
 
-from agents.cli import main as cli_main
-from agents.frontier import EXPLORE, LOCALISE, REFINE, FrontierAgent
-from agents.goal_choice import (
+from agents.cli.main import main as cli_main
+from agents.common.env import make_env
+from agents.evaluation.suite import suite_settings
+from agents.goals.choice import (
     CHOICES,
     N_FEATURES,
     GoalChoiceAgent,
     choice_space,
     feature_space,
 )
-from agents.goal_env import GoalChoiceEnv
-from agents.goal_training import load_goal_agent
-from agents.registry import SHIPPED_GOAL_POLICY, SHIPPED_POLICY, agent_label, make_agent, make_env
-from agents.suite import suite_settings
-from agents.train_config import ConfigError, config_from_dict
-from agents.training import train
-from agents.world_sampling import WorldDistribution
+from agents.learning.config import ConfigError, config_from_dict
+from agents.learning.goal_env import GoalChoiceEnv
+from agents.learning.sb3.goal_training import load_goal_agent
+from agents.learning.sb3.training import train
+from agents.learning.world_sampling import WorldDistribution
+from agents.planners.frontier import EXPLORE, LOCALISE, REFINE, FrontierAgent
+from agents.registry import SHIPPED_GOAL_POLICY, SHIPPED_POLICY, agent_label, make_agent
 
 INFORMATION_ONLY = {
     "reward_weights": {

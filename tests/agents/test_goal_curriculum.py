@@ -5,11 +5,11 @@ from __future__ import annotations
 
 import pytest
 
-from agents.goal_env import GoalChoiceEnv
-from agents.goal_training import GoalEnvFactory
-from agents.train_config import ConfigError, config_from_dict
-from agents.training import train
-from agents.world_sampling import WorldDistribution
+from agents.learning.config import ConfigError, config_from_dict
+from agents.learning.goal_env import GoalChoiceEnv
+from agents.learning.sb3.goal_training import GoalEnvFactory
+from agents.learning.sb3.training import train
+from agents.learning.world_sampling import WorldDistribution
 from tests.agents.test_goal_choice import INFORMATION_ONLY, tiny_goal_config
 
 GOALS = {"decisions": "goals", "vectorization": "dummy"}

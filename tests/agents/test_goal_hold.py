@@ -8,13 +8,14 @@ import numpy as np
 import pytest
 from stable_baselines3 import PPO
 
-from agents.frontier import EXPLORE, REFINE, FrontierAgent
-from agents.goal_choice import GoalChoiceAgent
-from agents.goal_env import GoalChoiceEnv
-from agents.goal_training import load_goal_agent
-from agents.registry import SHIPPED_GOAL_POLICY, make_env
-from agents.train_config import ConfigError, config_from_dict
-from agents.training import train
+from agents.common.env import make_env
+from agents.goals.choice import GoalChoiceAgent
+from agents.learning.config import ConfigError, config_from_dict
+from agents.learning.goal_env import GoalChoiceEnv
+from agents.learning.sb3.goal_training import load_goal_agent
+from agents.learning.sb3.training import train
+from agents.planners.frontier import EXPLORE, REFINE, FrontierAgent
+from agents.registry import SHIPPED_GOAL_POLICY
 from tests.agents.test_goal_choice import SMALL_ARENA, Recorder, run, tiny_goal_config
 
 

@@ -10,8 +10,8 @@ import pytest
 from stable_baselines3 import PPO
 from stable_baselines3.common.policies import ActorCriticPolicy
 
-from agents.frontier import EXPLORE, LOCALISE, REFINE
-from agents.goal_choice import (
+from agents.common.env import make_env
+from agents.goals.choice import (
     CHOICES,
     MODE_FEATURES,
     N_FEATURES,
@@ -20,10 +20,10 @@ from agents.goal_choice import (
     choice_space,
     feature_space,
 )
-from agents.goal_imitation import Demonstrations, LoopClosingRule, demonstrate, fit_policy
-from agents.registry import make_env
-from agents.train_config import ConfigError, config_from_dict
-from agents.training import train
+from agents.learning.config import ConfigError, config_from_dict
+from agents.learning.goal_imitation import Demonstrations, LoopClosingRule, demonstrate, fit_policy
+from agents.learning.sb3.training import train
+from agents.planners.frontier import EXPLORE, LOCALISE, REFINE
 from tests.agents.test_goal_choice import tiny_goal_config
 
 EXPLORE_CHOICE, LOCALISE_CHOICE = 0, 3

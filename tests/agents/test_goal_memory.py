@@ -9,12 +9,18 @@ import sys
 import numpy as np
 import pytest
 
-from agents.goal_choice import N_FEATURES, GoalChoiceAgent
-from agents.goal_training import PolicyChooser, load_goal_agent
-from agents.registry import make_agent, make_env
-from agents.suite import suite_settings
-from agents.train_config import MAX_MEMORY_FRAMES, MAX_MEMORY_UNITS, ConfigError, config_from_dict
-from agents.training import train
+from agents.common.env import make_env
+from agents.evaluation.suite import suite_settings
+from agents.goals.choice import N_FEATURES, GoalChoiceAgent
+from agents.learning.config import (
+    MAX_MEMORY_FRAMES,
+    MAX_MEMORY_UNITS,
+    ConfigError,
+    config_from_dict,
+)
+from agents.learning.sb3.goal_training import PolicyChooser, load_goal_agent
+from agents.learning.sb3.training import train
+from agents.registry import make_agent
 from tests.agents.test_goal_choice import run, tiny_goal_config
 
 GOALS = {"decisions": "goals", "vectorization": "dummy"}

@@ -1,11 +1,11 @@
-"""The known map on a grid (agents.grid_map)."""
+"""The known map on a grid (agents.planners.grid_map)."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from agents.grid_map import GridMap
+from agents.planners.grid_map import GridMap
 from tests.agents.grid_worlds import ROBOT_INFLATION, box_obstacle, small_layout
 
 

@@ -1,4 +1,4 @@
-"""Searches on the grid (agents.grid_search); the compiled Dijkstra against the plain one:
+"""Searches on the grid (agents.planners.grid_search); the compiled Dijkstra against the plain one:
 test_search_kernel.py."""
 
 from __future__ import annotations
@@ -9,8 +9,8 @@ import math
 import numpy as np
 import pytest
 
-from agents.grid_map import GridMap
-from agents.grid_search import astar, dijkstra, nearest_passable, path_from_parents
+from agents.planners.grid_map import GridMap
+from agents.planners.grid_search import astar, dijkstra, nearest_passable, path_from_parents
 from tests.agents.grid_worlds import ROBOT_INFLATION, box_obstacle, cells_hit_box, small_layout
 
 

@@ -8,8 +8,8 @@ import gymnasium as gym
 import numpy as np
 import pytest
 
-from agents.base import Agent
-from agents.infogain import DEFAULT_PRIMITIVES, InfoGainAgent, InfoGainParams
+from agents.common.base import Agent
+from agents.planners.infogain import DEFAULT_PRIMITIVES, InfoGainAgent, InfoGainParams
 from tests.agents.exploration_runs import (
     ENV_ID,
     assert_beats_random_on_default_episodes,

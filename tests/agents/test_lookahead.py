@@ -1,4 +1,4 @@
-"""agents/lookahead.py: a try in hindsight is the episode that follows, a drawn world
+"""agents/goals/lookahead.py: a try in hindsight is the episode that follows, a drawn world
 is a draw from the belief (the robot and the mapped landmarks from the filter's
 Gaussian, the rest over the unswept area) with noise of its own, tries stop at their
 horizon, the endgame takes the least final entropy, and the ``lookahead`` agent is
@@ -13,11 +13,11 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from agents import lookahead
-from agents.evaluation import run_episode
-from agents.goal_choice import GoalChoiceAgent
-from agents.goal_imitation import LoopClosingRule
-from agents.lookahead import (
+from agents.common.env import make_env
+from agents.evaluation.suite import suite_settings
+from agents.goals import lookahead
+from agents.goals.choice import GoalChoiceAgent
+from agents.goals.lookahead import (
     DRAWS,
     ENDGAME,
     EXPLORING,
@@ -29,9 +29,10 @@ from agents.lookahead import (
     steps_to_mapped,
     with_lookahead,
 )
-from agents.registry import agent_label, make_agent, make_env
-from agents.suite import suite_settings
-from agents.suite_metrics import landmarks_needed, suite_metrics
+from agents.learning.goal_imitation import LoopClosingRule
+from agents.registry import agent_label, make_agent
+from agents.rollouts.episodes import run_episode
+from agents.rollouts.suite_metrics import landmarks_needed, suite_metrics
 
 SMALL = {"width": 8.0, "height": 8.0, "n_landmarks": 10, "n_obstacles": 2}
 RULE = LoopClosingRule(close_at=0.4, closed_at=0.2)

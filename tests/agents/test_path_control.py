@@ -1,4 +1,4 @@
-"""The unicycle controller and pure pursuit (agents.path_control)."""
+"""The unicycle controller and pure pursuit (agents.planners.path_control)."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from agents.path_control import ControllerParams, PathFollower, unicycle_control
+from agents.planners.path_control import ControllerParams, PathFollower, unicycle_control
 
 
 def test_controller_turns_on_the_spot_toward_a_waypoint_behind():

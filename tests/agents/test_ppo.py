@@ -11,10 +11,9 @@ import numpy as np
 import pytest
 import yaml
 
-from agents.evaluation import evaluate
-from agents.ppo import PPOAgent, load_ppo_agent
-from agents.registry import make_agent, make_env
-from agents.train_config import (
+from agents.common.env import make_env
+from agents.evaluation.compare import evaluate
+from agents.learning.config import (
     DEFAULT_CONFIG_PATH,
     ConfigError,
     PPOParams,
@@ -22,7 +21,9 @@ from agents.train_config import (
     config_from_dict,
     load_config,
 )
-from agents.training import train
+from agents.learning.ppo_agent import PPOAgent, load_ppo_agent
+from agents.learning.sb3.training import train
+from agents.registry import make_agent
 
 SMALL_WORLD = {"n_landmarks": 5, "width": 8.0, "height": 8.0, "n_obstacles": 1}
 
@@ -217,7 +218,7 @@ def test_evaluate_round_trip_with_a_trained_policy(trained, tmp_path):
 
 
 def test_demo_runs_a_policy_on_the_world_it_was_trained_on(trained, tmp_path):
-    from agents.demo import demo
+    from agents.evaluation.demo import demo
 
     _, path = trained
     # No env options given: the demo takes them from the YAML next to the policy
@@ -231,7 +232,7 @@ def test_demo_runs_a_policy_on_the_world_it_was_trained_on(trained, tmp_path):
 def test_saved_policy_drops_the_optimiser_state_and_acts_the_same(tmp_path):
     from stable_baselines3 import PPO
 
-    from agents.training import save_policy_file
+    from agents.learning.sb3.runs import save_policy_file
 
     env = make_env(SMALL_WORLD)
     model = PPO("MlpPolicy", env, n_steps=64, batch_size=32, n_epochs=1, seed=0, device="cpu")
@@ -301,9 +302,9 @@ def test_the_shipped_policy_is_small_and_fits_the_default_env():
 def test_ppo_episodes_side_by_side_equal_the_single_env_episodes(trained):
     # evaluate runs a policy's episodes on the native vector env; the same seeds give
     # the very same episodes as the single env, across batches (5 seeds, 2 at a time).
-    from agents.base import RandomAgent
-    from agents.evaluation import run_episode
-    from agents.vector_episodes import acts_on_batches, run_episodes_batched
+    from agents.common.base import RandomAgent
+    from agents.rollouts.episodes import run_episode
+    from agents.rollouts.vector_episodes import acts_on_batches, run_episodes_batched
 
     _, path = trained
     env = make_env(SMALL_WORLD, 40)
@@ -326,18 +327,18 @@ def test_ppo_episodes_side_by_side_equal_the_single_env_episodes(trained):
 
 @pytest.mark.parametrize("decisions", ["actions", "goals"])
 def test_ctrl_c_keeps_the_policy_says_where_and_closes_the_envs(tmp_path, monkeypatch, decisions):
-    from agents.train_timing import TimedPPO
+    from agents.learning.sb3.timing import TimedPPO
 
     def interrupted(self, *args, **kwargs):
         raise KeyboardInterrupt
 
     monkeypatch.setattr(TimedPPO, "learn", interrupted)
     closed = []
-    import agents.training
+    import agents.learning.sb3.runs
 
-    real_close = agents.training._close
+    real_close = agents.learning.sb3.runs._close
     monkeypatch.setattr(
-        agents.training,
+        agents.learning.sb3.runs,
         "_close",
         lambda env, quietly: (closed.append(quietly), real_close(env, quietly)),
     )

@@ -23,12 +23,12 @@ import numpy as np
 import pytest
 import yaml
 
-from agents.cli import main
-from agents.registry import make_env
-from agents.rllib_agent import load_rllib_agent
-from agents.rllib_config import RLlibSettings, check_gpus, ppo_config
-from agents.rllib_env import RLLIB_ENV_IDS, make_rllib_env
-from agents.train_config import config_from_dict
+from agents.cli.main import main
+from agents.common.env import make_env
+from agents.learning.config import config_from_dict
+from agents.learning.rllib.agent import load_rllib_agent
+from agents.learning.rllib.config import RLlibSettings, check_gpus, ppo_config
+from agents.learning.rllib.env import RLLIB_ENV_IDS, make_rllib_env
 from slam_env.envs.vector import ActiveSLAMVectorEnv
 
 pytestmark = pytest.mark.rllib

@@ -8,17 +8,17 @@ import sys
 
 import pytest
 
-import agents.cli
-from agents.cli import main
-from agents.registry import agent_label, parse_agent_specs
-from agents.rllib_config import (
+import agents.cli.main
+from agents.cli.main import main
+from agents.learning.config import ConfigError, config_from_dict
+from agents.learning.rllib.config import (
     RLlibSettings,
     check_reachable,
     check_rllib_config,
     log_slam_metrics,
 )
-from agents.rllib_env import RLLIB_INSTALL, RLlibNotInstalledError, require_rllib
-from agents.train_config import ConfigError, config_from_dict
+from agents.learning.rllib.env import RLLIB_INSTALL, RLlibNotInstalledError, require_rllib
+from agents.registry import agent_label, parse_agent_specs
 
 
 @pytest.fixture
@@ -54,9 +54,9 @@ def test_missing_ray_is_one_line_naming_the_extra(argv, no_ray, tmp_path, capsys
 
 
 def test_default_engine_is_sb3_and_the_cli_never_imports_ray(no_ray):
-    args = agents.cli.build_parser().parse_args(["train"])
+    args = agents.cli.main.build_parser().parse_args(["train"])
     assert args.engine == "sb3"
-    assert agents.cli._rllib_settings(args) is None
+    assert agents.cli.main._rllib_settings(args) is None
 
 
 @pytest.mark.parametrize(

@@ -10,7 +10,8 @@ import pytest
 from stable_baselines3 import PPO
 from stable_baselines3.common.vec_env import DummyVecEnv, VecMonitor
 
-from agents.sb3_vector import InfoRow, SB3VectorEnv, make_sb3_vec_env
+from agents.common.info_rows import InfoRow
+from agents.learning.sb3.vector_env import SB3VectorEnv, make_sb3_vec_env
 from tests.streams import assert_same
 
 ENV_ID = "slam_env/Landmarks-v0"

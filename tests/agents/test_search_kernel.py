@@ -1,4 +1,4 @@
-"""The compiled Dijkstra (agents.search_kernel) against the plain Python search it
+"""The compiled Dijkstra (agents.planners.search_kernel) against the plain Python search it
 replaced (benchmarks/dijkstra_reference.py): equal distances and parents, bit for bit."""
 
 from __future__ import annotations
@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from agents.grid_search import dijkstra
+from agents.planners.grid_search import dijkstra
 from benchmarks.dijkstra_reference import reference_dijkstra
 
 

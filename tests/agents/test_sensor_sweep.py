@@ -1,4 +1,4 @@
-"""The sensor footprint, the coverage map and box sums (agents.sensor_sweep)."""
+"""The sensor footprint, the coverage map and box sums (agents.planners.sensor_sweep)."""
 
 from __future__ import annotations
 
@@ -6,8 +6,8 @@ import math
 
 import numpy as np
 
-from agents.grid_map import GridMap
-from agents.sensor_sweep import CoverageMap, box_sum, sensor_footprint
+from agents.planners.grid_map import GridMap
+from agents.planners.sensor_sweep import CoverageMap, box_sum, sensor_footprint
 from tests.agents.grid_worlds import box_obstacle, small_layout
 
 

@@ -12,23 +12,24 @@ import gymnasium as gym
 import numpy as np
 import pytest
 
-from agents.evaluation import run_episode
-from agents.registry import make_agent, make_env
-from agents.sb3_vector import InfoRow
-from agents.slam_callbacks import (
-    EVAL_PREFIX,
-    TRAIN_PREFIX,
-    SlamMetricsCallback,
-    vector_columns,
-)
-from agents.slam_metrics import (
+from agents.common.env import make_env
+from agents.common.info_rows import InfoRow
+from agents.learning.metrics import (
     SLAM_METRICS,
     STEP_KEYS,
     EpisodeTallies,
     evaluation_score,
     mean_metrics,
 )
-from agents.training import train
+from agents.learning.sb3.callbacks import (
+    EVAL_PREFIX,
+    TRAIN_PREFIX,
+    SlamMetricsCallback,
+    vector_columns,
+)
+from agents.learning.sb3.training import train
+from agents.registry import make_agent
+from agents.rollouts.episodes import run_episode
 
 # A world mapped at the first look (a sensor all around that reaches every corner), so
 # that every metric, the time to 90% mapped included, is defined in a short run.

@@ -7,10 +7,10 @@ import json
 import numpy as np
 import pytest
 
-from agents.cli import main
-from agents.evaluation import EpisodeRecord
-from agents.suite import SUITES, chosen_settings, suite_settings
-from agents.suite_metrics import steps_to_share, suite_metrics
+from agents.cli.main import main
+from agents.evaluation.suite import SUITES, chosen_settings, suite_settings
+from agents.rollouts.records import EpisodeRecord
+from agents.rollouts.suite_metrics import steps_to_share, suite_metrics
 
 
 def _record(known, entropy, collision, n=4, map_rmse=None):
@@ -96,7 +96,7 @@ def test_the_default_suite_covers_the_issue_settings():
 
 
 def test_the_table_marks_each_settings_best_and_counts_wins_head_to_head():
-    from agents.suite import suite_markdown
+    from agents.evaluation.suite import suite_markdown
 
     def row(setting, agent, s90, h):
         return {"setting": setting, "agent": agent, "steps_to_90": s90, "final_entropy": h,
@@ -189,7 +189,7 @@ def test_cli_suite_refuses_settings_it_does_not_have(tmp_path, capsys, argv, mes
     ],
 )
 def test_run_suite_refuses_bad_counts_before_anything_runs(tmp_path, counts, message):
-    from agents.suite import run_suite
+    from agents.evaluation.suite import run_suite
 
     with pytest.raises(ValueError, match=message):
         run_suite(["random"], "smoke", tmp_path, progress=False, verbose=False, **counts)
@@ -197,8 +197,8 @@ def test_run_suite_refuses_bad_counts_before_anything_runs(tmp_path, counts, mes
 
 
 def test_cli_evaluate_leaves_the_counts_it_was_not_given_to_the_runners(monkeypatch, tmp_path):
-    import agents.evaluation
-    import agents.suite
+    import agents.evaluation.compare
+    import agents.evaluation.suite
 
     calls = []
 
@@ -209,8 +209,8 @@ def test_cli_evaluate_leaves_the_counts_it_was_not_given_to_the_runners(monkeypa
 
         return run
 
-    monkeypatch.setattr(agents.evaluation, "evaluate", record("evaluate"))
-    monkeypatch.setattr(agents.suite, "run_suite", record("suite"))
+    monkeypatch.setattr(agents.evaluation.compare, "evaluate", record("evaluate"))
+    monkeypatch.setattr(agents.evaluation.suite, "run_suite", record("suite"))
     argv = ["evaluate", "--agents", "random", "--out", str(tmp_path)]
     for extra in ([], ["--suite", "smoke"], ["--episodes", "4", "--seed", "9"]):
         with pytest.raises(SystemExit):
@@ -233,7 +233,7 @@ def test_cli_suite_refuses_bad_input(tmp_path, capsys):
 
 
 def test_a_policy_tied_to_its_landmark_count_is_refused_before_anything_runs(tmp_path):
-    from agents.suite import run_suite
+    from agents.evaluation.suite import run_suite
 
     # The shipped egocentric policy has 20 landmark slots; the smoke suite's rooms 6.
     with pytest.raises(ValueError, match="setting 'rooms'"):

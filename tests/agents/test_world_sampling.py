@@ -6,12 +6,14 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from agents.ppo import load_ppo_agent
-from agents.registry import make_agent, make_env
-from agents.suite import agent_observation, suite_settings
-from agents.train_config import ConfigError, config_from_dict
-from agents.training import train
-from agents.world_sampling import WorldDistribution, WorldSamplingVecEnv, episode_length
+from agents.common.env import make_env
+from agents.common.episode_length import episode_length
+from agents.evaluation.suite import agent_observation, suite_settings
+from agents.learning.config import ConfigError, config_from_dict
+from agents.learning.ppo_agent import load_ppo_agent
+from agents.learning.sb3.training import train
+from agents.learning.world_sampling import WorldDistribution, WorldSamplingVecEnv
+from agents.registry import make_agent
 from slam_env.belief.local_encoding import local_space
 from tests.test_local_observation import local_space_with_extras
 

@@ -66,7 +66,7 @@ def test_without_a_writable_cache_the_kernels_compile_and_warn_once() -> None:
 
 def _compiled_files() -> set[Path]:
     """The source file of every kernel that the package and the agents define."""
-    import agents.search_kernel  # noqa: F401  (the planners' kernel)
+    import agents.planners.search_kernel  # noqa: F401  (the planners' kernel)
     import slam_env.ekf
     import slam_env.envs.vector  # noqa: F401  (imports every kernel of the envs)
     from slam_env.kernels.base.compiling import KERNELS

@@ -1,0 +1,1 @@
+"""The ``slam-env`` command (also ``python -m agents``): train, evaluate, suite, demo."""

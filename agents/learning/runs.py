@@ -1,0 +1,55 @@
+"""What a training run does whatever its engine (stable-baselines3 or RLlib): check the
+env its config makes before any worker starts, and write the run's summary."""
+
+from __future__ import annotations
+
+import json
+import math
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+import gymnasium as gym
+
+from agents.common.env import make_env
+from agents.learning.config import ConfigError, TrainConfig
+
+
+def check_train_env(cfg: TrainConfig) -> str:
+    """Fail here, with the env's message, rather than in a worker process; return the
+    SB3 policy that takes the env's observation (``MlpPolicy`` for the flat egocentric
+    belief, ``MultiInputPolicy`` for a ``Dict`` such as the local one)."""
+    env = make_env(cfg.env_options, cfg.max_episode_steps)
+    try:
+        env.reset(seed=cfg.seed)  # e.g. a random world that cannot be laid out
+        space = env.observation_space
+    finally:
+        env.close()
+    local = cfg.env_options.get("observation") == "local"
+    if cfg.worlds is not None and not local:
+        raise ConfigError(
+            "training across worlds needs env_options.observation: local (the one "
+            "observation whose size does not depend on the world)"
+        )
+    if isinstance(space, gym.spaces.Dict) and not local:
+        raise ConfigError(
+            "PPO trains on the flat egocentric belief or the local observation, not on "
+            "the full covariance: set env_options.observation to egocentric or local"
+        )
+    return "MultiInputPolicy" if local else "MlpPolicy"
+
+
+def write_summary(out: Path, summary: dict[str, Any], interrupted: bool, model: Path) -> None:
+    """``training_summary.json`` into ``out``; then, if Ctrl-C stopped the training,
+    the ``KeyboardInterrupt`` that says where the policy was saved."""
+    (out / "training_summary.json").write_text(json.dumps(summary, indent=2) + "\n")
+    if interrupted:
+        raise KeyboardInterrupt(f"training interrupted; model saved to {model}")
+
+
+def finite(x: float) -> float | None:
+    return float(x) if math.isfinite(x) else None
+
+
+def finite_map(figures: Mapping[str, float] | None) -> dict[str, float | None] | None:
+    return None if figures is None else {k: finite(v) for k, v in figures.items()}

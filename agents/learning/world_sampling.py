@@ -1,0 +1,307 @@
+"""Training across worlds: a distribution of world settings, and an SB3 ``VecEnv`` that
+draws a new setting for every episode on the native vector env.
+
+A policy that must explore worlds it never saw is trained on many: every episode of
+every group of sub-envs gets a setting drawn from a :class:`WorldDistribution` (preset,
+arena side, landmark and obstacle counts, sensor range and FOV), with an episode
+length that scales with the arena (:func:`episode_length`). The observation must be
+one whose space does not depend on the world (``observation="local"``); a setting that
+gives another space is refused.
+
+The native vector env keeps one config for all its sub-envs, so the sub-envs are split
+into ``groups`` native vector envs of ``n_envs / groups`` sub-envs each. A group's
+episodes start together and the group cuts them together at their length (the time
+limit is the group's, not the env's); then the group draws its next setting, builds
+(or takes from a small cache) the vector env of that setting and resets it with seeds
+drawn from the group's own generator: a run is the same for the same seed. A setting
+whose world cannot be laid out (a random world too cluttered for its arena) is drawn
+again.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import OrderedDict
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, fields, replace
+from typing import Any
+
+import numpy as np
+from stable_baselines3.common.vec_env.base_vec_env import VecEnv, VecEnvIndices
+
+from agents.common.episode_length import REFERENCE_ARENA, episode_length
+from agents.learning.sb3.vector_env import SB3VectorEnv, make_sb3_vec_env
+from slam_env.config import PRESETS
+
+# Built vector envs a group keeps for settings drawn again.
+CACHED_SETTINGS = 8
+# The inner vector envs' time limit: never reached, the group cuts its episodes itself.
+NEVER = 2**62
+# Draws of a setting before giving up on a distribution that cannot lay out its worlds.
+MAX_DRAWS = 20
+
+
+def _choices(name: str, value: Any, kind: type) -> tuple:
+    """A field's choices as a tuple of ``kind``; numbers > 0 (obstacle counts >= 0)."""
+    if isinstance(value, (str, int, float)) and not isinstance(value, bool):
+        value = [value]
+    if not isinstance(value, Sequence) or isinstance(value, str) or not value:
+        raise ValueError(f"worlds.{name} must be a non-empty list, got {value!r}")
+    out = []
+    for v in value:
+        ok = isinstance(v, kind) or (kind is float and isinstance(v, int))
+        if isinstance(v, bool) or not ok:
+            raise ValueError(f"worlds.{name} must hold {kind.__name__}s, got {v!r}")
+        least = 0 if name == "obstacle_counts" else 1e-300
+        if kind is not str and not (math.isfinite(v) and v >= least):
+            bound = ">= 0" if least == 0 else "> 0"
+            raise ValueError(f"worlds.{name} must hold numbers {bound}, got {v!r}")
+        out.append(kind(v))
+    return tuple(out)
+
+
+@dataclass(frozen=True)
+class WorldDistribution:
+    """World settings, each drawn uniformly and independently per episode. A field left
+    as ``None`` keeps the env's own value (``env_options`` or its default)."""
+
+    presets: tuple[str, ...] = ("random",)  # slam_env presets (random draws a layout)
+    arena_sizes: tuple[float, ...] | None = None  # m, square arenas
+    landmark_counts: tuple[int, ...] | None = None
+    obstacle_counts: tuple[int, ...] | None = None  # of random worlds
+    sensor_ranges: tuple[float, ...] | None = None  # m
+    fovs: tuple[float, ...] | None = None  # rad
+
+    def __post_init__(self) -> None:
+        for name, kind in (
+            ("presets", str),
+            ("arena_sizes", float),
+            ("landmark_counts", int),
+            ("obstacle_counts", int),
+            ("sensor_ranges", float),
+            ("fovs", float),
+        ):
+            value = getattr(self, name)
+            if value is not None:
+                object.__setattr__(self, name, _choices(name, value, kind))
+        unknown = sorted(set(self.presets) - set(PRESETS))
+        if unknown:
+            raise ValueError(f"worlds.presets: unknown {unknown}; presets: {', '.join(PRESETS)}")
+
+    @classmethod
+    def from_mapping(cls, data: Mapping[str, Any]) -> WorldDistribution:
+        """From a config's ``worlds`` mapping; unknown keys are errors."""
+        valid = {f.name for f in fields(cls)}
+        unknown = sorted(set(data) - valid)
+        if unknown:
+            raise ValueError(f"unknown worlds key(s) {unknown}; valid: {', '.join(sorted(valid))}")
+        return cls(**dict(data))
+
+    def up_to(self, share: float) -> WorldDistribution:
+        """The distribution with only the smallest ``ceil(share · K)`` (at least one) of
+        its K arena sizes: a curriculum's worlds at ``share`` of its ramp; itself once
+        every size is in (or without arena sizes)."""
+        if self.arena_sizes is None:
+            return self
+        sizes = sorted(self.arena_sizes)
+        k = max(1, math.ceil(min(max(share, 0.0), 1.0) * len(sizes)))
+        return self if k == len(sizes) else replace(self, arena_sizes=tuple(sizes[:k]))
+
+    def sample(self, rng: np.random.Generator) -> dict[str, Any]:
+        """One setting's env options (flat names), drawn from ``rng``."""
+
+        def pick(values: tuple) -> Any:
+            return values[int(rng.integers(len(values)))]
+
+        options: dict[str, Any] = {"preset": pick(self.presets)}
+        if self.arena_sizes is not None:
+            side = pick(self.arena_sizes)
+            options["width"] = options["height"] = side
+        for name, key in (
+            ("landmark_counts", "n_landmarks"),
+            ("obstacle_counts", "n_obstacles"),
+            ("sensor_ranges", "max_range"),
+            ("fovs", "fov"),
+        ):
+            values = getattr(self, name)
+            if values is not None:
+                options[key] = pick(values)
+        return options
+
+
+def _row_of(obs: Any, k: int) -> Any:
+    """Row ``k`` of a batched observation (a ``Dict``'s: every key's), fresh arrays."""
+    if isinstance(obs, dict):
+        return {key: value[k].copy() for key, value in obs.items()}
+    return obs[k].copy()
+
+
+class WorldSamplingVecEnv(VecEnv):
+    """``n_envs`` sub-envs of ``env_id`` in ``groups`` native vector envs, each group on a
+    world setting drawn from ``worlds`` for every episode (see the module docstring).
+
+    Args:
+        env_id: the env (its observation space must not depend on the setting).
+        n_envs: sub-envs in all; a multiple of ``groups``.
+        worlds: the distribution of settings.
+        env_options: options every setting shares (e.g. ``observation="local"``,
+            reward weights); a drawn setting overrides them.
+        groups: native vector envs (default: one per sub-env, so that every sub-env
+            draws its own worlds; fewer batch more sub-envs in each kernel call).
+        seed: the groups' generators (and so every drawn setting and world).
+        max_episode_steps: episode length; None: :func:`episode_length` of the arena.
+    """
+
+    def __init__(
+        self,
+        env_id: str,
+        n_envs: int,
+        worlds: WorldDistribution,
+        env_options: Mapping[str, Any] | None = None,
+        *,
+        groups: int | None = None,
+        seed: int = 0,
+        max_episode_steps: int | None = None,
+    ) -> None:
+        groups = n_envs if groups is None else groups
+        if groups < 1 or n_envs % groups:
+            raise ValueError(f"n_envs ({n_envs}) must be a multiple of groups ({groups})")
+        self.env_id = env_id
+        self.worlds = worlds
+        self.env_options = dict(env_options or {})
+        self.group_size = n_envs // groups
+        self.max_episode_steps = max_episode_steps
+        self._rngs = [np.random.default_rng([seed, g]) for g in range(groups)]
+        self._cache: list[OrderedDict[tuple, SB3VectorEnv]] = [OrderedDict() for _ in range(groups)]
+        self.settings: list[dict[str, Any]] = []  # each group's current setting
+        self.episodes_drawn = 0  # settings drawn so far, over all groups
+        self.lengths = np.zeros(groups, dtype=np.int64)  # each group's episode length
+        self.elapsed = np.zeros(groups, dtype=np.int64)  # and its steps so far
+        drawn = [self._draw(0)]
+        self._envs = [drawn[0][0]]  # what VecEnv's set-up reads (render_mode)
+        super().__init__(n_envs, drawn[0][0].observation_space, drawn[0][0].action_space)
+        drawn += [self._draw(g) for g in range(1, groups)]
+        self._envs = [env for env, _ in drawn]
+        self._first = [first for _, first in drawn]  # each group's reset observation
+        self._actions: np.ndarray | None = None
+        self._started = False
+
+    # ------------------------------------------------------------------ settings
+    def _draw(self, group: int) -> tuple[SB3VectorEnv, Any]:
+        """Group ``group``'s next setting (recorded in :attr:`settings`), its vector env
+        and that env's first observation, reset with seeds from the group's generator."""
+        rng = self._rngs[group]
+        for _ in range(MAX_DRAWS):
+            setting = self.worlds.sample(rng)
+            try:
+                env = self._env_for(group, setting)
+                env.seed(int(rng.integers(2**31)))
+                first = env.reset()
+                break
+            except ValueError:
+                continue  # a preset that cannot be laid out in this arena: draw again
+        else:
+            raise ValueError(f"worlds: no layable setting in {MAX_DRAWS} draws from {self.worlds}")
+        if group < len(self.settings):
+            self.settings[group] = setting
+        else:
+            self.settings.append(setting)
+        self.episodes_drawn += 1
+        options = {**self.env_options, **setting}
+        self.lengths[group] = self.max_episode_steps or episode_length(
+            options.get("width", REFERENCE_ARENA), options.get("height", REFERENCE_ARENA)
+        )
+        self.elapsed[group] = 0
+        return env, first
+
+    def _env_for(self, group: int, setting: dict[str, Any]) -> SB3VectorEnv:
+        key = tuple(sorted(setting.items()))
+        cache = self._cache[group]
+        if key in cache:
+            cache.move_to_end(key)
+            return cache[key]
+        options = {**self.env_options, **setting}
+        # The group cuts its episodes itself (see step_wait): the env never truncates.
+        env = make_sb3_vec_env(self.env_id, self.group_size, max_episode_steps=NEVER, **options)
+        if self.settings and env.observation_space != self.observation_space:
+            env.close()
+            raise TypeError(
+                f"the observation space of setting {setting} differs from the first "
+                "setting's: train across worlds on a world-independent observation "
+                "(observation='local')"
+            )
+        cache[key] = env
+        if len(cache) > CACHED_SETTINGS:
+            cache.popitem(last=False)[1].close()
+        return env
+
+    # ------------------------------------------------------------------ VecEnv
+    def _slices(self) -> list[slice]:
+        k = self.group_size
+        return [slice(g * k, (g + 1) * k) for g in range(len(self._envs))]
+
+    def _stack(self, parts: list[Any]) -> Any:
+        if isinstance(parts[0], dict):
+            return {key: np.concatenate([p[key] for p in parts]) for key in parts[0]}
+        return np.concatenate(parts)
+
+    def reset(self) -> Any:
+        if self._started:  # a new start: every group draws again
+            for g in range(len(self._envs)):
+                self._envs[g], self._first[g] = self._draw(g)
+        self._started = True
+        obs = list(self._first)
+        self.reset_infos = [row for env in self._envs for row in env.reset_infos]
+        return self._stack(obs)
+
+    def step_async(self, actions: np.ndarray) -> None:
+        self._actions = actions
+
+    def step_wait(self) -> tuple[Any, np.ndarray, np.ndarray, list[Any]]:
+        obs, rewards, dones, infos = [], [], [], []
+        for g, rows in enumerate(self._slices()):
+            o, r, d, i = self._envs[g].step(self._actions[rows])
+            self.elapsed[g] += 1
+            if self.elapsed[g] >= self.lengths[g]:
+                # The time limit: the group's episodes end together; a new setting. (An
+                # episode that terminates before, with terminate_when_all_detected, is
+                # reset by the env in the same world.)
+                for k, row in enumerate(i):
+                    if not d[k]:
+                        row["terminal_observation"] = _row_of(o, k)
+                        row["TimeLimit.truncated"] = True
+                d = np.ones_like(d)
+                self._envs[g], o = self._draw(g)
+                self._first[g] = o
+            obs.append(o)
+            rewards.append(r)
+            dones.append(d)
+            infos += list(i)
+        return self._stack(obs), np.concatenate(rewards), np.concatenate(dones), infos
+
+    def close(self) -> None:
+        for cache in self._cache:
+            for env in cache.values():
+                env.close()
+            cache.clear()
+
+    def get_images(self) -> Sequence[np.ndarray | None]:
+        return [frame for env in self._envs for frame in env.get_images()]
+
+    def get_attr(self, attr_name: str, indices: VecEnvIndices = None) -> list[Any]:
+        last = len(self._envs) - 1
+        return [
+            getattr(self._envs[min(i // self.group_size, last)].venv, attr_name)
+            for i in self._get_indices(indices)
+        ]
+
+    def set_attr(self, attr_name: str, value: Any, indices: VecEnvIndices = None) -> None:
+        raise AttributeError(f"cannot set {attr_name!r}: the sub-envs' worlds are drawn")
+
+    def env_method(
+        self, method_name: str, *method_args: Any, indices: VecEnvIndices = None, **kwargs: Any
+    ) -> list[Any]:
+        raise AttributeError(f"cannot call {method_name!r} per sub-env of a native vector env")
+
+    def env_is_wrapped(self, wrapper_class: type, indices: VecEnvIndices = None) -> list[bool]:
+        return [False for _ in self._get_indices(indices)]
