@@ -50,10 +50,10 @@ lint: setup
 	$(VENV)/bin/ruff format --check .
 
 bench: setup
-	$(PY) benchmarks/bench_env.py
-	$(PY) benchmarks/bench_filter.py
-	$(PY) benchmarks/bench_consistency.py
-	if command -v valgrind >/dev/null; then $(PY) benchmarks/bench_instructions.py; fi
+	$(PY) -m benchmarks.bench_env
+	$(PY) -m benchmarks.bench_filter
+	$(PY) -m benchmarks.bench_consistency
+	if command -v valgrind >/dev/null; then $(PY) -m benchmarks.bench_instructions; fi
 
 clean:
 	rm -rf $(VENV) $(RLLIB_VENV) $(OUT) .pytest_cache .ruff_cache

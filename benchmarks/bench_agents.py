@@ -1,11 +1,11 @@
 """The planning agents' cost: their distance-field search, and whole episodes.
 
-    .venv/bin/python benchmarks/bench_agents.py [--episodes 3] [--searches 20] [--repeats 2]
+    .venv/bin/python -m benchmarks.bench_agents [--episodes 3] [--searches 20] [--repeats 2]
 
 1. ``dijkstra`` on the default world's planning grid (16 m arena, 0.25 m cells, the
    frontier agent's obstacle-proximity costs, from the robot's start): the compiled
    search (:mod:`agents.planners.search_kernel`) against the plain Python one it replaced
-   (``benchmarks/dijkstra_reference.py``), side by side, ms per search.
+   (``references/dijkstra.py``), side by side, ms per search.
 2. Exploration episodes of the default world (500 steps, seeds 0..) for ``frontier``,
    ``infogain`` and the shipped ``goals`` policy: seconds per episode, and the same
    episodes' time with the Python search patched in (the agents' results are the same
@@ -23,7 +23,6 @@ from collections.abc import Callable
 from unittest import mock
 
 import numpy as np
-from dijkstra_reference import reference_dijkstra
 
 import agents.planners.frontier
 import agents.planners.infogain
@@ -33,6 +32,7 @@ from agents.planners.exploration_memory import ExplorationMemory
 from agents.planners.grid_search import dijkstra
 from agents.registry import make_agent
 from agents.rollouts.episodes import run_episode
+from references.dijkstra import reference_dijkstra
 
 AGENTS = ("frontier", "infogain", "goals")
 

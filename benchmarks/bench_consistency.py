@@ -1,6 +1,6 @@
 """Filter consistency and map accuracy against the batch least-squares optimum.
 
-    .venv/bin/python benchmarks/bench_consistency.py [--runs 30] [--steps 500]
+    .venv/bin/python -m benchmarks.bench_consistency [--runs 30] [--steps 500]
         [--odometry-scale 1] [--seed 0] [--variants known/standard ideal jcbb/fej ...]
         [--clutter 0]
 
@@ -23,7 +23,7 @@ Each episode's recorded data is fed to every EKF-SLAM variant of ``--variants``
 (:data:`VARIANTS`: a name and the ``EKFSLAM`` keyword arguments that make it, on top of
 :func:`filter_kwargs`, the noise-matched filter the env's ActiveSLAM wrapper builds:
 true start pose, zero initial covariance, χ² gate ``DEFAULT_GATE``) and to the batch
-least-squares smoother (benchmarks/smoother.py), started from the known-ID standard
+least-squares smoother (references/smoother.py), started from the known-ID standard
 filter's filtered trajectory and final map. Variants whose ``data_association`` is not
 ``"known"`` get the detections with every ID hidden (−1); the others, and the smoother,
 only the detections the env labelled (ID ≥ 0: clutter, where the env has it, is left
@@ -34,7 +34,7 @@ The row ``ideal`` (:data:`IDEAL`) is the yardstick of the ``in band`` column: th
 consistency of extended Kalman filter based SLAM", ICRA 2008), the known-ID filter
 with every Jacobian evaluated at the truth (G and V at the true pose the step starts
 from, H at the true pose and landmark, L and W of a new landmark at the true pose)
-while its means come from its estimates (benchmarks/ideal_ekf.py, :func:`run_ideal`).
+while its means come from its estimates (references/ideal_ekf.py, :func:`run_ideal`).
 It cannot run on a robot (it reads the truth), but it shows how consistent an EKF
 linearisation can be on the same data: the NEES a filter can hope for, as ``LS RMSE``
 is the map error it can hope for.
@@ -68,14 +68,14 @@ from typing import Any
 
 import gymnasium as gym
 import numpy as np
-from ideal_ekf import IdealEKF
-from smoother import Episode, smooth
 
 import slam_env  # noqa: F401  (registers the env IDs)
 from agents.common.arguments import non_negative_int, positive_int
 from agents.planners.grid_map import GridMap
 from agents.planners.grid_search import astar, nearest_passable
 from agents.planners.path_control import ControllerParams, PathFollower
+from references.ideal_ekf import IdealEKF
+from references.smoother import Episode, smooth
 from slam_env.belief.metrics import map_rmse, nees, nees_band, pose_error, share_in_nees_band
 from slam_env.config import make_config
 from slam_env.ekf import DEFAULT_GATE, EKFSLAM, LINEARIZATIONS, UpdateResult
@@ -110,7 +110,7 @@ VARIANTS: dict[str, dict[str, Any]] = {
 }
 # The variant whose filtered trajectory and map start the smoother.
 BASELINE = "known/standard"
-# The row of the ideal EKF (benchmarks/ideal_ekf.py, every Jacobian at the truth).
+# The row of the ideal EKF (references/ideal_ekf.py, every Jacobian at the truth).
 IDEAL = "ideal"
 
 SEEN_CLOSE = 3.0  # m, a landmark detected from closer than this needs no visit

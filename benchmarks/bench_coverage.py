@@ -1,7 +1,7 @@
 """The swept-area memory's step: µs per world-step of ``CoverageGrid.step_all`` (sweep,
 then features) on the default env grid (16 m arena, 0.5 m cells, the default sensor).
 
-    .venv/bin/python benchmarks/bench_coverage.py [--worlds 64] [--steps 2000] [--repeats 3]
+    .venv/bin/python -m benchmarks.bench_coverage [--worlds 64] [--steps 2000] [--repeats 3]
 
 The B worlds follow random walks like the robots' under random actions (up to 0.2 m
 a step, headings turning up to ±0.3 rad, turned back at the walls; each world starts

@@ -1,6 +1,6 @@
 """Env throughput: slam_env steps per second against CartPole-v1 in the same run.
 
-    .venv/bin/python benchmarks/bench_env.py [--steps 20000] [--repeats 3]
+    .venv/bin/python -m benchmarks.bench_env [--steps 20000] [--repeats 3]
                      [--wrapped] [--vector 8 64 256] [--vector-ids Landmarks ActiveSLAM]
                      [--vector-steps 600]
 

@@ -2,7 +2,7 @@
 revision (the pure-numpy one by default), the dense textbook filter and one copy of Σ,
 and the compile cost of the kernels.
 
-    .venv/bin/python benchmarks/bench_filter.py [--quick] [--correction batch]
+    .venv/bin/python -m benchmarks.bench_filter [--quick] [--correction batch]
                      [--sizes 10 20 50 100 200] [--baseline d380797] [--clock wall|cpu]
                      [--threads 1] [--cpu 0] [--no-compile-times]
 
@@ -14,7 +14,7 @@ One *step* is one prediction and one update with 5 observations of known landmar
   directory and run in a child process with ``PYTHONPATH`` pointing there (the child
   answers over a pipe, so its rounds take turns with ours: a slow spell of the shared
   machine hits both);
-* on the dense textbook EKF-SLAM of ``tests/ekf/dense_reference.py`` (full G, R, H,
+* on the dense textbook EKF-SLAM of ``references/dense_ekf.py`` (full G, R, H,
   K = ΣHᵀS⁻¹ and the Joseph form as (I−KH)Σ(I−KH)ᵀ + KQKᵀ), loaded by file path;
 
 and the *floor* is one copy of Σ (``np.copyto`` into a ready buffer): the memory
@@ -34,7 +34,6 @@ at N = 200, within 3× of one copy of Σ.
 from __future__ import annotations
 
 import argparse
-import importlib.util
 import json
 import os
 import subprocess
@@ -51,18 +50,6 @@ ROOT = Path(__file__).resolve().parents[1]
 ALPHAS = (0.01, 0.005, 0.01, 0.005)
 RANGE_STD, BEARING_STD = 0.05, 0.0175
 CLOCKS = {"wall": time.perf_counter, "cpu": time.process_time}
-
-
-def load_dense_reference() -> Any:
-    name = "slam_env_tests_ekf_dense_reference"
-    if name not in sys.modules:
-        spec = importlib.util.spec_from_file_location(
-            name, ROOT / "tests" / "ekf" / "dense_reference.py"
-        )
-        module = importlib.util.module_from_spec(spec)
-        sys.modules[name] = module
-        spec.loader.exec_module(module)
-    return sys.modules[name]
 
 
 def timed_block(fn: Any, block: float, clock: Any) -> float:
@@ -82,6 +69,7 @@ def make_filters(n: int, correction: str, dense: bool = True) -> tuple[Any, Any,
     and back with 5 observations. Written against the API both revisions share."""
     import numpy as np
 
+    from references import dense_ekf
     from slam_env.ekf import EKFSLAM
     from slam_env.ekf.models import odometry_motion, range_bearing_h
 
@@ -99,7 +87,7 @@ def make_filters(n: int, correction: str, dense: bool = True) -> tuple[Any, Any,
     filters = [ours]
     reference = None
     if dense:
-        reference = load_dense_reference().DenseEKFSLAM(
+        reference = dense_ekf.DenseEKFSLAM(
             "odometry", "range_bearing", Q, alphas=ALPHAS, initial_pose_cov=prior,
             correction=correction,
         )  # fmt: skip

@@ -1,7 +1,7 @@
 """Static-geometry queries: the compiled kernels of slam_env.kernels.world.raycast against
 pymunk's public ``Space.segment_query_first``, which they reproduce bit for bit.
 
-    .venv/bin/python benchmarks/bench_geometry.py [--queries 4000] [--repeats 5]
+    .venv/bin/python -m benchmarks.bench_geometry [--queries 4000] [--repeats 5]
 
 Per world (a default random world, the cluttered and the rooms presets), two query
 sets: lines of sight from random points in the arena to landmarks within the sensor's

@@ -1,7 +1,7 @@
 """Instructions per env step, counted by valgrind's callgrind: repeatable figures on a
 shared machine, where wall-clock rates wander by tens of percent between runs.
 
-    .venv/bin/python benchmarks/bench_instructions.py [--steps 250] [--warmup 100]
+    .venv/bin/python -m benchmarks.bench_instructions [--steps 250] [--warmup 100]
 
 Each env is stepped in a child process under ``valgrind --tool=callgrind``: ``--warmup``
 random steps, then ``--steps`` more inside one ``sys.call_tracing`` call, and callgrind

@@ -1,6 +1,6 @@
 """Sampling throughput: RLlib's EnvRunners (1 and 2) beside the stable-baselines3 path.
 
-    .venv-rllib/bin/python benchmarks/bench_rllib.py [--steps 4096] [--repeats 3] [--n-envs K]
+    .venv-rllib/bin/python -m benchmarks.bench_rllib [--steps 4096] [--repeats 3] [--n-envs K]
 
 Env steps/s of collecting rollouts with the policy acting (no gradient updates), on
 ``slam_env/ActiveSLAM-v0`` with the default config's env options, sub-envs and

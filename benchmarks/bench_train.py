@@ -1,6 +1,6 @@
 """``slam-env train`` throughput: the native vector env against worker processes.
 
-    .venv/bin/python benchmarks/bench_train.py [--steps 20000] [--repeats 2]
+    .venv/bin/python -m benchmarks.bench_train [--steps 20000] [--repeats 2]
 
 Runs ``slam-env train`` (the default config, ``agents/configs/ppo_default.yaml``, with
 no checkpoints, evaluation or progress bar) in a fresh process per run, for the same

@@ -1,6 +1,6 @@
 """What the SLAM metrics cost training: ``slam-env train`` with and without them.
 
-    .venv/bin/python benchmarks/bench_train_metrics.py [--steps 4096] [--repeats 3]
+    .venv/bin/python -m benchmarks.bench_train_metrics [--steps 4096] [--repeats 3]
                      [--n-envs 1] [--skip-training]
 
 Part 1 runs ``agents.learning.sb3.training.train`` with the default config
@@ -166,7 +166,7 @@ import gymnasium as gym
 import numpy as np
 import slam_env
 from agents.common.info_rows import InfoRow
-from bench_train_metrics import step_callback
+from benchmarks.bench_train_metrics import step_callback
 b, rows, steps = {b}, {rows!r}, {steps}
 env = gym.make("slam_env/ActiveSLAM-v0")
 env.reset(seed=0)
@@ -192,15 +192,15 @@ def instruction_counts(steps: int) -> tuple[float, list[tuple[str, int, float]]]
     for (infos, B): each the difference of two children, 0 and ``steps`` steps."""
     from concurrent.futures import ThreadPoolExecutor
 
-    from bench_instructions import CALLGRIND, count
+    from benchmarks.bench_instructions import CALLGRIND, count
 
     cases = [("dict rows", 1), ("dict rows", 2), ("native vector rows", 8)]
     cases.append(("native vector rows", 64))
 
     def callback_run(rows: str, b: int, n: int) -> int:
         kind = "dict" if rows == "dict rows" else "vector"
-        # Run beside this file, so that the child imports step_callback from it.
-        here = str(Path(__file__).resolve().parent)
+        # Run from the root, so that the child imports step_callback from this module.
+        here = str(Path(__file__).resolve().parents[1])
         code = _CALLBACK_CHILD.format(b=b, rows=kind, steps=n)
         run = subprocess.run(
             [*CALLGRIND, sys.executable, "-c", code],

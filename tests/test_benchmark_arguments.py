@@ -1,4 +1,4 @@
-"""Every benchmark refuses a count out of range as a usage error (exit 2, the flag
+"""Every benchmark and experiment refuses a count out of range as a usage error (exit 2, the flag
 named, no traceback) before it runs anything: the counts go through the argparse types
 of ``agents.common.arguments``, which ``slam-env`` uses too."""
 
@@ -13,36 +13,38 @@ import pytest
 
 from agents.common.arguments import int_at_least, non_negative_int, positive_int
 
-BENCHMARKS = Path(__file__).resolve().parents[1] / "benchmarks"
+ROOT = Path(__file__).resolve().parents[1]
 
 # One count per benchmark that once crashed, divided by zero or printed inf for it.
 BAD_COUNTS = {
-    "bench_agents.py": ["--searches", "0"],
-    "bench_choice_distillation.py": ["--epochs", "0"],
-    "bench_choice_oracle.py": ["--samples", "0"],
-    "bench_consistency.py": ["--steps", "0"],
-    "bench_coverage.py": ["--steps", "-1"],
-    "bench_env.py": ["--repeats", "0"],
-    "bench_filter.py": ["--sizes", "10", "0"],
-    "bench_geometry.py": ["--queries", "0"],
-    "bench_instructions.py": ["--steps", "0"],
-    "bench_rllib.py": ["--n-envs", "0"],
-    "bench_train.py": ["--steps", "0"],
-    "bench_train_metrics.py": ["--instructions", "-1"],
+    "benchmarks.bench_agents": ["--searches", "0"],
+    "benchmarks.bench_consistency": ["--steps", "0"],
+    "benchmarks.bench_coverage": ["--steps", "-1"],
+    "benchmarks.bench_env": ["--repeats", "0"],
+    "benchmarks.bench_filter": ["--sizes", "10", "0"],
+    "benchmarks.bench_geometry": ["--queries", "0"],
+    "benchmarks.bench_instructions": ["--steps", "0"],
+    "benchmarks.bench_rllib": ["--n-envs", "0"],
+    "benchmarks.bench_train": ["--steps", "0"],
+    "benchmarks.bench_train_metrics": ["--instructions", "-1"],
+    "experiments.choice_distillation": ["--epochs", "0"],
+    "experiments.choice_oracle": ["--samples", "0"],
 }
 
 
-def test_every_benchmark_is_listed():
-    assert sorted(BAD_COUNTS) == sorted(p.name for p in BENCHMARKS.glob("bench_*.py"))
+def test_every_benchmark_and_experiment_is_listed():
+    scripts = [*ROOT.glob("benchmarks/bench_*.py"), *ROOT.glob("experiments/[!_]*.py")]
+    assert sorted(BAD_COUNTS) == sorted(f"{p.parent.name}.{p.stem}" for p in scripts)
 
 
-@pytest.mark.parametrize(("script", "args"), sorted(BAD_COUNTS.items()))
-def test_a_count_out_of_range_is_a_usage_error(script, args):
+@pytest.mark.parametrize(("module", "args"), sorted(BAD_COUNTS.items()))
+def test_a_count_out_of_range_is_a_usage_error(module, args):
     done = subprocess.run(
-        [sys.executable, str(BENCHMARKS / script), *args],
+        [sys.executable, "-m", module, *args],
         capture_output=True,
         text=True,
         timeout=120,
+        cwd=ROOT,
     )
     assert done.returncode == 2 and done.stdout == ""
     assert "Traceback" not in done.stderr

@@ -1,4 +1,4 @@
-"""The ideal EKF of benchmarks/ideal_ekf.py, the consistency benchmark's yardstick:
+"""The ideal EKF of references/ideal_ekf.py, the consistency benchmark's yardstick:
 linearised at its own estimates it is EKFSLAM; linearised elsewhere its covariance is
 the one EKFSLAM has with its mean at those points, while its mean moves from its own
 estimate; fed noise-free data and the truth it tracks the truth."""
@@ -11,7 +11,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from benchmarks.ideal_ekf import IdealEKF
+from references.ideal_ekf import IdealEKF
 from slam_env.ekf import CORRECTED, DEFAULT_GATE, EKFSLAM, INITIALISED, REJECTED
 from slam_env.ekf.models import MEASUREMENT_MODELS, MOTION_MODELS
 from tests.ekf.test_filter_reference import assert_same_belief

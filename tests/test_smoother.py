@@ -1,4 +1,4 @@
-"""The batch least-squares smoother of benchmarks/smoother.py, the yardstick of the
+"""The batch least-squares smoother of references/smoother.py, the yardstick of the
 consistency benchmark: exact on noise-free data, better than its initialisation on
 noisy data, a stationary point, and an analytic Jacobian that matches finite
 differences."""
@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from benchmarks.smoother import (
+from references.smoother import (
     Episode,
     SmootherProblem,
     dead_reckoning,

@@ -21,7 +21,7 @@ noise is fresh: the copy knows nothing the agent does not (the map of walls and
 obstacles is given to every agent; see :mod:`agents.planners.grid_map`).
 
 ``--agents lookahead`` runs it over the shipped goal policy (``lookahead:PATH`` over
-another); ``benchmarks/bench_choice_oracle.py`` measures it against ``frontier``.
+another); ``experiments/choice_oracle.py`` measures it against ``frontier``.
 """
 
 from __future__ import annotations

@@ -7,7 +7,7 @@ search, move for move, compiled: the same sums in the same order, and the heap p
 ``(distance, cell)`` in the same lexicographic order as ``heapq`` pops its tuples, so
 that distances *and* parents equal the Python loop's bit for bit
 (``tests/agents/test_search_kernel.py`` holds it to that loop,
-``benchmarks/dijkstra_reference.py``).
+``references/dijkstra.py``).
 """
 
 from __future__ import annotations

@@ -1,5 +1,5 @@
 """The compiled Dijkstra (agents.planners.search_kernel) against the plain Python search it
-replaced (benchmarks/dijkstra_reference.py): equal distances and parents, bit for bit."""
+replaced (references/dijkstra.py): equal distances and parents, bit for bit."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from agents.planners.grid_search import dijkstra
-from benchmarks.dijkstra_reference import reference_dijkstra
+from references.dijkstra import reference_dijkstra
 
 
 def _case(seed: int):

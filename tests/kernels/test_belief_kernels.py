@@ -1,5 +1,5 @@
 """The belief-side kernels over B worlds against the plain code they replaced
-(tests/kernels/reference.py), world by world."""
+(references/belief_numpy.py), world by world."""
 
 from __future__ import annotations
 
@@ -8,6 +8,7 @@ import math
 import numpy as np
 import pytest
 
+from references import belief_numpy as reference
 from slam_env.belief.coverage import CoverageGrid
 from slam_env.belief.encodings import BeliefGeometry, EgocentricEncoding, FullEncoding
 from slam_env.belief.entropy import BeliefEntropy
@@ -17,7 +18,6 @@ from slam_env.kernels.belief.coverage import coverage_step
 from slam_env.kernels.belief.diagnostics import DIAGNOSTICS, EMPTY_MAP_RMSE, belief_diagnostics
 from slam_env.kernels.belief.entropy import belief_entropy
 from slam_env.kernels.belief.reward import RewardSignals, active_slam_reward
-from tests.kernels import reference
 
 M = 6  # landmark slots
 DMAX = 3 + 2 * M

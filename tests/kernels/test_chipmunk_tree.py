@@ -7,8 +7,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from references.chipmunk_tree import bb_tree as reference_tree
 from slam_env.kernels.world.chipmunk import bb_tree
-from tests.kernels.chipmunk_tree_reference import bb_tree as reference_tree
 
 
 def _random_boxes(rng: np.random.Generator, n: int, grid: bool) -> list[tuple[float, ...]]:

@@ -1,7 +1,7 @@
 """What the goal choices could give: a lookahead over the exploring choices, in
 hindsight or from the belief, beside ``frontier``, on one setting of the suite.
 
-    .venv/bin/python benchmarks/bench_choice_oracle.py [--setting default] [--episodes 30]
+    .venv/bin/python -m experiments.choice_oracle [--setting default] [--episodes 30]
         [--world hindsight|belief] [--samples 4] [--seed 10000] [--base rule|goals|goals:PATH]
         [--labels PATH.npz] [--endgame 0]
 
@@ -32,7 +32,7 @@ Prints, per agent, the means of steps to 90% mapped, final entropy, collisions p
 difference from ``frontier`` (mean ± standard error, and the seeds it is lower on).
 The episodes are the suite's: ``reset(seed=seed + i)``, the setting's length.
 ``--labels`` also saves every choice the lookahead weighed, for
-``bench_choice_distillation.py``: its features, the steps from it to 90% mapped of each
+``experiments/choice_distillation.py``: its features, the steps from it to 90% mapped of each
 exploring choice in each world tried, the base's own choice and the episode's seed.
 """
 

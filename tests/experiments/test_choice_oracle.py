@@ -1,4 +1,4 @@
-"""benchmarks/bench_choice_oracle.py, the command behind "what the choices can give"
+"""experiments/choice_oracle.py, the command behind "what the choices can give"
 in docs/goal_policy.md: its report, the choices it weighs and saves, its bases (the
 lookahead itself is tests/agents/test_lookahead.py's)."""
 
@@ -14,7 +14,7 @@ from agents.goals.choice import GoalChoiceAgent
 from agents.goals.lookahead import EXPLORING, Label
 from agents.rollouts.episodes import run_episode
 from agents.rollouts.suite_metrics import suite_metrics
-from benchmarks.bench_choice_oracle import RULE, lookahead_agent, main, report, save_labels
+from experiments.choice_oracle import RULE, lookahead_agent, main, report, save_labels
 
 SMALL = {"width": 8.0, "height": 8.0, "n_landmarks": 10, "n_obstacles": 2}
 

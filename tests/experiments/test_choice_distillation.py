@@ -1,4 +1,4 @@
-"""benchmarks/bench_choice_distillation.py, the command behind "Distilling the lookahead"
+"""experiments/choice_distillation.py, the command behind "Distilling the lookahead"
 in docs/goal_policy.md: advantages are taken against the base's own choice in each world,
 a fit keeps the base's choice unless it predicts one lower, the standard error treats
 episodes as the units, and a cost the features do predict is found on held-out
@@ -11,7 +11,7 @@ import math
 import numpy as np
 import pytest
 
-from benchmarks.bench_choice_distillation import (
+from experiments.choice_distillation import (
     Split,
     advantages,
     evaluate,

@@ -2,10 +2,10 @@
 fit the lookahead's costs of the exploring choices, choose by the fit on held-out
 episodes, and weigh those choices with the held-out labels.
 
-    .venv/bin/python benchmarks/bench_choice_distillation.py LABELS.npz [LABELS.npz ...]
+    .venv/bin/python -m experiments.choice_distillation LABELS.npz [LABELS.npz ...]
         [--test-share 0.33] [--seed 0] [--epochs 200]
 
-The labels are the choices ``bench_choice_oracle.py --labels`` saved: the
+The labels are the choices ``experiments/choice_oracle.py --labels`` saved: the
 :func:`~agents.goals.choice.choice_features` of a choice and, for each exploring choice
 (the three frontier weightings), the mean steps from it to 90% of the landmarks mapped
 in the worlds the lookahead drew. The episodes (their seeds) are split at random, a
@@ -68,7 +68,7 @@ def share(text: str) -> float:
 
 def load_labels(paths: Sequence[Path]) -> dict[str, np.ndarray]:
     """The arrays of every file, concatenated (``choices``: the files' common one);
-    ``ValueError`` for a file that is not a label file of ``bench_choice_oracle.py``
+    ``ValueError`` for a file that is not a label file of ``experiments/choice_oracle.py``
     or whose choices differ."""
     keys = ("features", "costs", "own", "seed")
     parts: dict[str, list[np.ndarray]] = {k: [] for k in keys}
@@ -76,7 +76,7 @@ def load_labels(paths: Sequence[Path]) -> dict[str, np.ndarray]:
     for path in paths:
         with np.load(path) as data:
             if sorted(data.files) != sorted([*keys, "choices"]) or data["costs"].ndim != 3:
-                raise ValueError(f"{path} is not a label file of bench_choice_oracle.py")
+                raise ValueError(f"{path} is not a label file of experiments/choice_oracle.py")
             if choices is not None and (
                 not np.array_equal(data["choices"], choices)
                 or data["costs"].shape[1:] != parts["costs"][0].shape[1:]

@@ -1,0 +1,1 @@
+"""Tests of the research scripts of experiments/."""
