@@ -7,7 +7,7 @@ OUT ?= out
 RLLIB_VENV ?= .venv-rllib
 RPY := $(RLLIB_VENV)/bin/python
 # The env contract (checkers, native vector env, options), run again on Ray's gymnasium.
-CONTRACT_TESTS := tests/test_checkers.py tests/test_vector.py tests/test_options.py
+CONTRACT_TESTS := tests/envs/test_checkers.py tests/envs/test_vector.py tests/envs/test_options.py
 
 .PHONY: setup setup-rllib demo test test-slow test-rllib lint bench clean
 

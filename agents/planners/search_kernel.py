@@ -6,7 +6,7 @@ with ``heapq``, that was more than half of a frontier agent's episode. This is t
 search, move for move, compiled: the same sums in the same order, and the heap pops
 ``(distance, cell)`` in the same lexicographic order as ``heapq`` pops its tuples, so
 that distances *and* parents equal the Python loop's bit for bit
-(``tests/agents/test_search_kernel.py`` holds it to that loop,
+(``tests/agents/planners/test_search_kernel.py`` holds it to that loop,
 ``references/dijkstra.py``).
 """
 

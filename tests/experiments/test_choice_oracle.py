@@ -1,6 +1,6 @@
 """experiments/choice_oracle.py, the command behind "what the choices can give"
 in docs/goal_policy.md: its report, the choices it weighs and saves, its bases (the
-lookahead itself is tests/agents/test_lookahead.py's)."""
+lookahead itself is tests/agents/goals/test_lookahead.py's)."""
 
 from __future__ import annotations
 

@@ -17,7 +17,7 @@ is the comparison of a distance with the robot's radius; where the kernel's dist
 lies within :data:`CLEARANCE_SLACK` of it (round-off could tell it apart from
 pymunk's), the robot is flagged with its moves and the caller settles it with
 pymunk's queries. So the positions are pymunk's, bit for bit
-(``tests/test_world_batch.py``), and pymunk is asked about one world-step in tens of
+(``tests/world/test_world_batch.py``), and pymunk is asked about one world-step in tens of
 thousands. A world without the geometry (a standalone :class:`~slam_env.world.pymunk_world.World`,
 the reference) is flagged wherever its disk does not hold its step.
 """
