@@ -43,7 +43,10 @@ def test_sync_and_async_vector_envs_give_the_same_stream(autoreset):
 
 
 def test_vector_stream_is_the_same_in_another_process():
-    code = "from tests.envs.test_robustness import _vector_digest;print(_vector_digest('sync', 'NextStep'))"
+    code = (
+        "from tests.envs.test_robustness import _vector_digest\n"
+        "print(_vector_digest('sync', 'NextStep'))"
+    )
     out = subprocess.run(
         [sys.executable, "-c", code], capture_output=True, text=True, check=True
     ).stdout.strip()
