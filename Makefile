@@ -9,7 +9,10 @@ RPY := $(RLLIB_VENV)/bin/python
 # The env contract (checkers, native vector env, options), run again on Ray's gymnasium.
 CONTRACT_TESTS := tests/envs/test_checkers.py tests/envs/test_vector.py tests/envs/test_options.py
 
-.PHONY: setup setup-rllib demo test test-slow test-rllib lint bench clean
+# The core install alone (no extras), in a virtual environment of its own.
+CORE_VENV ?= .venv-core
+
+.PHONY: setup setup-rllib demo test test-slow test-rllib test-core lint bench clean
 
 setup: $(VENV)/.installed
 
@@ -20,6 +23,14 @@ $(VENV)/.installed: pyproject.toml
 	$(PY) -m pip install --quiet torch==2.13.0
 	$(PY) -m pip install --quiet -e '.[dev]'
 	touch $@
+
+# `pip install .` and nothing else: both IDs, the native vector env, the filter and
+# Gymnasium's checker run, and what needs an extra says so (tests/core_install.py).
+test-core:
+	rm -rf $(CORE_VENV)
+	$(PYTHON) -m venv $(CORE_VENV)
+	$(CORE_VENV)/bin/python -m pip install --quiet .
+	$(CORE_VENV)/bin/python tests/core_install.py
 
 setup-rllib: $(RLLIB_VENV)/.installed
 
@@ -48,6 +59,7 @@ test-rllib: setup-rllib  ## Ray RLlib (a 2-node local cluster), and the env cont
 lint: setup
 	$(VENV)/bin/ruff check .
 	$(VENV)/bin/ruff format --check .
+	$(VENV)/bin/lint-imports
 
 bench: setup
 	$(PY) -m benchmarks.bench_env
@@ -56,4 +68,4 @@ bench: setup
 	if command -v valgrind >/dev/null; then $(PY) -m benchmarks.bench_instructions; fi
 
 clean:
-	rm -rf $(VENV) $(RLLIB_VENV) $(OUT) .pytest_cache .ruff_cache
+	rm -rf $(VENV) $(RLLIB_VENV) $(CORE_VENV) $(OUT) .pytest_cache .ruff_cache

@@ -34,6 +34,7 @@ import slam_env
 from agents.common.arguments import non_negative_int, positive_int
 from agents.learning.config import VECTORIZATIONS
 from agents.registry import AGENT_NAMES
+from slam_env.extras import MissingExtra, require
 
 PROG = "slam-env"
 
@@ -334,6 +335,8 @@ def _run_demo(args: argparse.Namespace) -> int:
 
 
 _COMMANDS = {"train": _run_train, "evaluate": _run_evaluate, "demo": _run_demo}
+# The extras each command needs beyond the core install (tables, progress, pictures).
+_EXTRAS = {"train": ("agents",), "evaluate": ("agents", "render"), "demo": ("agents", "render")}
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -341,10 +344,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     try:
+        for extra in _EXTRAS[args.command]:
+            require(extra, f"{PROG} {args.command}")
         return _COMMANDS[args.command](args)
-    except (ValueError, TypeError, OSError) as exc:
-        # Config, agent spec, env option, file or output-folder problems: a usage
-        # error, on one line.
+    except (ValueError, TypeError, OSError, MissingExtra) as exc:
+        # Config, agent spec, env option, file or output-folder problems, or an extra
+        # not installed: a usage error, on one line.
         message = " ".join(str(exc).split())
         parser.exit(2, f"{PROG} {args.command}: error: {message}\n")
     except KeyboardInterrupt as exc:

@@ -108,7 +108,7 @@ class TrainConfig:
     eval_episodes: int = 5
     eval_seed: int = 1_000_000  # the eval env's worlds: the same at every evaluation
     verbose: int = 0  # SB3 verbosity
-    # Training across worlds (agents.learning.world_sampling.WorldDistribution's fields): every
+    # Training across worlds (agents.learning.worlds.WorldDistribution's fields): every
     # episode draws its setting; None: every episode in the env_options' world.
     worlds: dict[str, Any] | None = None
     world_groups: int | None = None  # native vector envs the sub-envs are split into
@@ -279,7 +279,7 @@ def validate_config(cfg: TrainConfig) -> TrainConfig:
         "null or a mapping",
     )
     if cfg.worlds is not None:
-        from agents.learning.world_sampling import WorldDistribution
+        from agents.learning.worlds import WorldDistribution
 
         try:
             WorldDistribution.from_mapping(cfg.worlds)

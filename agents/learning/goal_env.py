@@ -8,7 +8,7 @@ the sum of the active-SLAM env's rewards over those env steps (its ``reward_weig
 shape it), plus ``discovery_bonus`` for each landmark the belief gains (up to
 ``discovery_until`` of the world's landmarks), per landmark of the world, so that
 worlds of 10 and of 60 landmarks weigh alike. Each episode draws
-its world from a :class:`~agents.learning.world_sampling.WorldDistribution` (or keeps the env
+its world from a :class:`~agents.learning.worlds.WorldDistribution` (or keeps the env
 options' world) and lasts :func:`~agents.common.episode_length.episode_length` of its arena unless
 ``max_episode_steps`` says otherwise.
 """
@@ -26,7 +26,7 @@ from agents.common.arguments import check_count
 from agents.common.env import make_env
 from agents.common.episode_length import REFERENCE_ARENA, episode_length
 from agents.goals.choice import GoalChoiceAgent, check_hold_goals, choice_space, feature_space
-from agents.learning.world_sampling import MAX_DRAWS, WorldDistribution
+from agents.learning.worlds import MAX_DRAWS, WorldDistribution
 
 _SEED_BOUND = 2**31
 
@@ -79,7 +79,7 @@ class GoalChoiceEnv(gym.Env):
         curriculum_choices: a curriculum over the arena sizes of ``worlds``: an episode
             that starts after c choices (over all episodes of this env) draws from the
             smallest ``ceil(c / curriculum_choices · K)`` of its K sizes
-            (:meth:`~agents.learning.world_sampling.WorldDistribution.up_to`), so that the
+            (:meth:`~agents.learning.worlds.WorldDistribution.up_to`), so that the
             arenas grow to all K over the first ``curriculum_choices`` choices; 0: all
             from the start.
         hold_goals: the agent's choices hold while their goals stand

@@ -10,6 +10,8 @@ import gymnasium as gym
 import numpy as np
 import yaml
 
+from slam_env.extras import require
+
 # Loading for inference only: the training schedules are replaced by constants, so a
 # model saved with another Python/SB3 version (whose pickled lambdas may not load)
 # still predicts.
@@ -111,6 +113,7 @@ def load_ppo_agent(path: str | Path, env: gym.Env | None = None) -> PPOAgent:
     With ``env``, its observation and action spaces must equal the policy's, else
     ``ValueError`` says how they differ. The model runs on the CPU.
     """
+    require("agents", "a PPO policy")
     from stable_baselines3 import PPO
 
     file = resolve_policy_path(path)

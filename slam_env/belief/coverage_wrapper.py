@@ -9,7 +9,6 @@ import gymnasium as gym
 import numpy as np
 
 from slam_env.belief.coverage import COVERAGE_CELL, CoverageGrid
-from slam_env.kernels.belief.belief_state import filter_belief
 
 __all__ = ["CoverageWrapper"]
 
@@ -80,7 +79,7 @@ class CoverageWrapper(gym.ObservationWrapper):
 
     def _pose(self) -> np.ndarray:
         """The filter's mean (1, dmax), the pose first: a view of its belief."""
-        return filter_belief(self._filter).x
+        return self._filter.belief_batch().x
 
     @staticmethod
     def _attach(obs: Any, coverage: np.ndarray) -> Any:

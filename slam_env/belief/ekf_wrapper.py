@@ -19,7 +19,7 @@ from slam_env.belief.encodings import (
 from slam_env.belief.entropy import BeliefEntropy
 from slam_env.belief.overlay import BeliefOverlay
 from slam_env.ekf import CORRECTION_MODES, DEFAULT_GATE, EKFSLAM
-from slam_env.kernels.belief.belief_state import SINGLE, BeliefBatch, filter_belief
+from slam_env.kernels.belief.belief_state import SINGLE, BeliefBatch
 from slam_env.kernels.belief.diagnostics import DIAGNOSTICS, belief_diagnostics
 from slam_env.kernels.belief.divergence import (
     DIVERGENCE_REJECTIONS,
@@ -194,7 +194,7 @@ class EKFSLAMWrapper(gym.ObservationWrapper):
     def observation(self, observation: Any) -> Any:
         """The belief encoding of the filter's current state (the raw observation has
         already been folded into the filter by ``reset``/``step``)."""
-        obs, self._last_clipped = self._encode(filter_belief(self.filter), observation)
+        obs, self._last_clipped = self._encode(self.filter.belief_batch(), observation)
         return obs
 
     def _encode(self, belief: BeliefBatch, raw: dict[str, np.ndarray]) -> tuple[Any, bool]:
@@ -224,7 +224,7 @@ class EKFSLAMWrapper(gym.ObservationWrapper):
         filter's state order (not modified); default the filter's."""
         if cov is not None:
             return self._entropy(cov)
-        belief = filter_belief(self.filter)
+        belief = self.filter.belief_batch()
         self._entropy.batch(belief.P, belief.n, self._entropy_out, self._entropy_ok)
         return self._entropy_out.item()
 
@@ -262,7 +262,7 @@ class EKFSLAMWrapper(gym.ObservationWrapper):
     ) -> tuple[Any, dict[str, Any]]:
         """The belief observation and the diagnostics, read off the live state."""
         f = self.filter
-        belief = filter_belief(f)
+        belief = f.belief_batch()
         obs, clipped = self._encode(belief, raw)
         diagnostics = self._diagnostics
         belief_diagnostics(

@@ -13,6 +13,7 @@ from __future__ import annotations
 import numpy as np
 
 from slam_env.ekf import checks
+from slam_env.kernels.belief.belief_state import BeliefBatch
 
 __all__ = ["BeliefReads"]
 
@@ -83,6 +84,12 @@ class BeliefReads:
         for view in views:
             view.flags.writeable = False
         return views
+
+    def belief_batch(self) -> BeliefBatch:
+        """The live belief as the belief kernels take it: the storage itself, which is
+        a batch of one (nothing copied). Ask again after the filter is unpickled or
+        copied (that one has storage of its own)."""
+        return BeliefBatch(self._xb, self._Pb, self._nb, self._slot_to_id_b)
 
     @property
     def pose(self) -> np.ndarray:

@@ -12,10 +12,6 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from matplotlib.backends.backend_agg import FigureCanvasAgg
-from matplotlib.figure import Figure
-from matplotlib.patches import Polygon, Rectangle
-from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
 
 from slam_env.belief.metrics import averaged_nees, nees_bands
 from slam_env.belief.overlay import (
@@ -25,7 +21,15 @@ from slam_env.belief.overlay import (
     BeliefOverlay,
     ellipse_points,
 )
+from slam_env.extras import require
 from slam_env.world.layouts import Layout
+
+require("render", "slam_env.render.plots")  # one line, not matplotlib's traceback
+
+from matplotlib.backends.backend_agg import FigureCanvasAgg  # noqa: E402
+from matplotlib.figure import Figure  # noqa: E402
+from matplotlib.patches import Polygon, Rectangle  # noqa: E402
+from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter  # noqa: E402
 
 __all__ = [
     "draw_belief",

@@ -34,6 +34,7 @@ from slam_env.belief.overlay import (
     ellipse_points,
     ellipses_points,
 )
+from slam_env.extras import require
 from slam_env.world.layouts import Layout
 
 __all__ = [
@@ -123,10 +124,9 @@ class Frame:
 def _import_pygame() -> Any:
     """Import pygame on first use (and without its banner on stdout)."""
     os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
-    try:
-        import pygame
-    except ImportError as exc:  # pragma: no cover - pygame is a declared dependency
-        raise ImportError("rendering needs pygame: pip install pygame") from exc
+    require("render", "rendering")
+    import pygame
+
     return pygame
 
 

@@ -13,7 +13,7 @@ from slam_env.belief.coverage import CoverageGrid
 from slam_env.belief.encodings import BeliefGeometry, EgocentricEncoding, FullEncoding
 from slam_env.belief.entropy import BeliefEntropy
 from slam_env.ekf import EKFSLAM
-from slam_env.kernels.belief.belief_state import BeliefBatch, filter_belief
+from slam_env.kernels.belief.belief_state import BeliefBatch
 from slam_env.kernels.belief.coverage import coverage_step
 from slam_env.kernels.belief.diagnostics import DIAGNOSTICS, EMPTY_MAP_RMSE, belief_diagnostics
 from slam_env.kernels.belief.entropy import belief_entropy
@@ -50,12 +50,12 @@ def live(batch: BeliefBatch, b: int) -> tuple[np.ndarray, np.ndarray, np.ndarray
 COUNTS = [0, 1, 3, M, 2, 5]
 
 
-def test_filter_belief_views_the_filters_storage():
+def test_the_belief_batch_views_the_filters_storage():
     f = EKFSLAM(
         alphas=(0.01, 0.01, 0.01, 0.01), max_landmarks=4, measurement_cov=np.diag([0.01, 0.001])
     )
     f.update(np.array([[2.0, 0.3], [3.0, -0.5]]), np.array([3, 1]))
-    belief = filter_belief(f)
+    belief = f.belief_batch()
     assert belief.x.shape == (1, 11) and belief.P.shape == (1, 11, 11)
     assert belief.n.tolist() == [2] and belief.slot_to_id[0, :2].tolist() == [3, 1]
     assert np.shares_memory(belief.x, f._x) and np.shares_memory(belief.P, f._P)

@@ -54,7 +54,7 @@ from agents.learning.sb3.runs import (
     learn_and_save,
     ppo_arguments,
 )
-from agents.learning.world_sampling import WorldDistribution
+from agents.learning.worlds import WorldDistribution
 
 
 @dataclass(frozen=True)

@@ -41,7 +41,8 @@ def make_train_vec_env(cfg: TrainConfig, n_envs: int, seed: int) -> Any:
     from stable_baselines3.common.vec_env import DummyVecEnv, SubprocVecEnv, VecMonitor
 
     if cfg.worlds is not None:
-        from agents.learning.world_sampling import WorldDistribution, WorldSamplingVecEnv
+        from agents.learning.sb3.world_sampling import WorldSamplingVecEnv
+        from agents.learning.worlds import WorldDistribution
 
         return VecMonitor(
             WorldSamplingVecEnv(

@@ -25,7 +25,7 @@ from agents.learning.config import ConfigError, config_from_dict
 from agents.learning.goal_env import GoalChoiceEnv
 from agents.learning.sb3.goal_training import load_goal_agent
 from agents.learning.sb3.training import train
-from agents.learning.world_sampling import WorldDistribution
+from agents.learning.worlds import WorldDistribution
 from agents.planners.frontier import EXPLORE, LOCALISE, REFINE, FrontierAgent
 from agents.registry import SHIPPED_GOAL_POLICY, SHIPPED_POLICY, agent_label, make_agent
 

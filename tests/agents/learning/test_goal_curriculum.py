@@ -9,7 +9,7 @@ from agents.learning.config import ConfigError, config_from_dict
 from agents.learning.goal_env import GoalChoiceEnv
 from agents.learning.sb3.goal_training import GoalEnvFactory
 from agents.learning.sb3.training import train
-from agents.learning.world_sampling import WorldDistribution
+from agents.learning.worlds import WorldDistribution
 from tests.agents.goals.test_choice import INFORMATION_ONLY, tiny_goal_config
 
 GOALS = {"decisions": "goals", "vectorization": "dummy"}

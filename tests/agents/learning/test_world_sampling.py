@@ -12,7 +12,8 @@ from agents.evaluation.suite import agent_observation, suite_settings
 from agents.learning.config import ConfigError, config_from_dict
 from agents.learning.ppo_agent import load_ppo_agent
 from agents.learning.sb3.training import train
-from agents.learning.world_sampling import WorldDistribution, WorldSamplingVecEnv
+from agents.learning.sb3.world_sampling import WorldSamplingVecEnv
+from agents.learning.worlds import WorldDistribution
 from agents.registry import make_agent
 from slam_env.belief.local_encoding import local_space
 from tests.belief.test_local_observation import local_space_with_extras

@@ -1,5 +1,6 @@
-"""Training across worlds: a distribution of world settings, and an SB3 ``VecEnv`` that
-draws a new setting for every episode on the native vector env.
+"""Training across worlds: an SB3 ``VecEnv`` that draws a new setting of a
+:class:`~agents.learning.worlds.WorldDistribution` for every episode on the native
+vector env.
 
 A policy that must explore worlds it never saw is trained on many: every episode of
 every group of sub-envs gets a setting drawn from a :class:`WorldDistribution` (preset,
@@ -20,10 +21,8 @@ again.
 
 from __future__ import annotations
 
-import math
 from collections import OrderedDict
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, fields, replace
 from typing import Any
 
 import numpy as np
@@ -31,102 +30,12 @@ from stable_baselines3.common.vec_env.base_vec_env import VecEnv, VecEnvIndices
 
 from agents.common.episode_length import REFERENCE_ARENA, episode_length
 from agents.learning.sb3.vector_env import SB3VectorEnv, make_sb3_vec_env
-from slam_env.config import PRESETS
+from agents.learning.worlds import MAX_DRAWS, WorldDistribution
 
 # Built vector envs a group keeps for settings drawn again.
 CACHED_SETTINGS = 8
 # The inner vector envs' time limit: never reached, the group cuts its episodes itself.
 NEVER = 2**62
-# Draws of a setting before giving up on a distribution that cannot lay out its worlds.
-MAX_DRAWS = 20
-
-
-def _choices(name: str, value: Any, kind: type) -> tuple:
-    """A field's choices as a tuple of ``kind``; numbers > 0 (obstacle counts >= 0)."""
-    if isinstance(value, (str, int, float)) and not isinstance(value, bool):
-        value = [value]
-    if not isinstance(value, Sequence) or isinstance(value, str) or not value:
-        raise ValueError(f"worlds.{name} must be a non-empty list, got {value!r}")
-    out = []
-    for v in value:
-        ok = isinstance(v, kind) or (kind is float and isinstance(v, int))
-        if isinstance(v, bool) or not ok:
-            raise ValueError(f"worlds.{name} must hold {kind.__name__}s, got {v!r}")
-        least = 0 if name == "obstacle_counts" else 1e-300
-        if kind is not str and not (math.isfinite(v) and v >= least):
-            bound = ">= 0" if least == 0 else "> 0"
-            raise ValueError(f"worlds.{name} must hold numbers {bound}, got {v!r}")
-        out.append(kind(v))
-    return tuple(out)
-
-
-@dataclass(frozen=True)
-class WorldDistribution:
-    """World settings, each drawn uniformly and independently per episode. A field left
-    as ``None`` keeps the env's own value (``env_options`` or its default)."""
-
-    presets: tuple[str, ...] = ("random",)  # slam_env presets (random draws a layout)
-    arena_sizes: tuple[float, ...] | None = None  # m, square arenas
-    landmark_counts: tuple[int, ...] | None = None
-    obstacle_counts: tuple[int, ...] | None = None  # of random worlds
-    sensor_ranges: tuple[float, ...] | None = None  # m
-    fovs: tuple[float, ...] | None = None  # rad
-
-    def __post_init__(self) -> None:
-        for name, kind in (
-            ("presets", str),
-            ("arena_sizes", float),
-            ("landmark_counts", int),
-            ("obstacle_counts", int),
-            ("sensor_ranges", float),
-            ("fovs", float),
-        ):
-            value = getattr(self, name)
-            if value is not None:
-                object.__setattr__(self, name, _choices(name, value, kind))
-        unknown = sorted(set(self.presets) - set(PRESETS))
-        if unknown:
-            raise ValueError(f"worlds.presets: unknown {unknown}; presets: {', '.join(PRESETS)}")
-
-    @classmethod
-    def from_mapping(cls, data: Mapping[str, Any]) -> WorldDistribution:
-        """From a config's ``worlds`` mapping; unknown keys are errors."""
-        valid = {f.name for f in fields(cls)}
-        unknown = sorted(set(data) - valid)
-        if unknown:
-            raise ValueError(f"unknown worlds key(s) {unknown}; valid: {', '.join(sorted(valid))}")
-        return cls(**dict(data))
-
-    def up_to(self, share: float) -> WorldDistribution:
-        """The distribution with only the smallest ``ceil(share · K)`` (at least one) of
-        its K arena sizes: a curriculum's worlds at ``share`` of its ramp; itself once
-        every size is in (or without arena sizes)."""
-        if self.arena_sizes is None:
-            return self
-        sizes = sorted(self.arena_sizes)
-        k = max(1, math.ceil(min(max(share, 0.0), 1.0) * len(sizes)))
-        return self if k == len(sizes) else replace(self, arena_sizes=tuple(sizes[:k]))
-
-    def sample(self, rng: np.random.Generator) -> dict[str, Any]:
-        """One setting's env options (flat names), drawn from ``rng``."""
-
-        def pick(values: tuple) -> Any:
-            return values[int(rng.integers(len(values)))]
-
-        options: dict[str, Any] = {"preset": pick(self.presets)}
-        if self.arena_sizes is not None:
-            side = pick(self.arena_sizes)
-            options["width"] = options["height"] = side
-        for name, key in (
-            ("landmark_counts", "n_landmarks"),
-            ("obstacle_counts", "n_obstacles"),
-            ("sensor_ranges", "max_range"),
-            ("fovs", "fov"),
-        ):
-            values = getattr(self, name)
-            if values is not None:
-                options[key] = pick(values)
-        return options
 
 
 def _row_of(obs: Any, k: int) -> Any:
