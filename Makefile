@@ -30,6 +30,7 @@ test-core:
 	rm -rf $(CORE_VENV)
 	$(PYTHON) -m venv $(CORE_VENV)
 	$(CORE_VENV)/bin/python -m pip install --quiet .
+	rm -rf build  # setuptools' own, left in the tree by the install
 	$(CORE_VENV)/bin/python tests/core_install.py
 
 setup-rllib: $(RLLIB_VENV)/.installed

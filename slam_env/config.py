@@ -47,18 +47,98 @@ def _plain_fields(obj: Any) -> None:
             object.__setattr__(obj, f.name, converted)
 
 
-def _check_positive(owner: str, **values: float) -> None:
-    for name, value in values.items():
-        _check_finite(owner, **{name: value})
-        if value <= 0:
-            raise ValueError(f"{owner}.{name} must be > 0, got {value!r}")
+# ---------------------------------------------------------------------- the table
+def option(
+    default: Any,
+    doc: str,
+    unit: str = "",
+    *,
+    above: float | None = None,
+    low: float | None = None,
+    high: float | None = None,
+    choices: tuple[str, ...] | None = None,
+    entries: tuple[str, ...] | None = None,
+) -> Any:
+    """A field of an option table: its default, what it means (``doc``), its ``unit``,
+    and what it may be, which :func:`check_options` checks and the docs list: a number
+    ``> above``, ``>= low``, ``<= high``; one of ``choices``; or, with ``entries``, a
+    tuple of that many numbers (each bounded so), the labels naming them."""
+    limits = {"above": above, "low": low, "high": high, "choices": choices, "entries": entries}
+    metadata = {"doc": doc, "unit": unit, **limits}
+    if isinstance(default, (list, dict)) or dataclasses.is_dataclass(default):
+        return field(default_factory=lambda: default, metadata=metadata)  # never shared
+    return field(default=default, metadata=metadata)
 
 
-def _check_non_negative(owner: str, **values: float) -> None:
-    for name, value in values.items():
+def limits_text(f: dataclasses.Field) -> str:
+    """The limits of an option field in words (for the docs)."""
+    m = f.metadata
+    if m.get("choices"):
+        return "one of " + ", ".join(repr(c) for c in m["choices"])
+    integer = isinstance(f.default, int) and not isinstance(f.default, bool)
+    bound = _interval(m, integer or "int" in str(f.type)) if _bounded(m) else ""
+    if m.get("entries"):
+        each = f", each {bound}" if bound else ""
+        return f"{len(m['entries'])} numbers ({', '.join(m['entries'])}){each}"
+    return bound
+
+
+def _bounded(m: Mapping) -> bool:
+    return any(m.get(key) is not None for key in ("above", "low", "high"))
+
+
+def _interval(m: Mapping, integer: bool) -> str:
+    """The bounds of a table entry as ``> 0``, ``>= 1``, ``in [0, 1]`` or ``in (0, 1]``."""
+    show = (lambda b: str(int(b))) if integer else (lambda b: f"{b:g}")
+    above, low, high = m.get("above"), m.get("low"), m.get("high")
+    if high is None:
+        return f"> {show(above)}" if above is not None else f">= {show(low)}"
+    if above is None and low is None:
+        return f"<= {show(high)}"
+    opening = f"({show(above)}" if above is not None else f"[{show(low)}"
+    return f"in {opening}, {show(high)}]"
+
+
+def _check_number(owner: str, name: str, value: Any, integer: bool, m: Mapping) -> None:
+    if integer:
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise TypeError(f"{owner}.{name} must be an int, got {type(value).__name__}")
+    else:
         _check_finite(owner, **{name: value})
-        if value < 0:
-            raise ValueError(f"{owner}.{name} must be >= 0, got {value!r}")
+    above, low, high = m.get("above"), m.get("low"), m.get("high")
+    if (
+        (above is not None and not value > above)
+        or (low is not None and not value >= low)
+        or (high is not None and not value <= high)
+    ):
+        shown = value if integer else repr(value)
+        raise ValueError(f"{owner}.{name} must be {_interval(m, integer)}, got {shown}")
+
+
+def check_options(obj: Any) -> None:
+    """Check every field of the frozen option dataclass ``obj`` against its table entry
+    (:func:`option`): ``TypeError`` for a wrong type, ``ValueError`` for a value out of
+    its limits, each naming ``Class.field``. ``None`` passes where it is the default."""
+    owner = type(obj).__name__
+    for f in dataclasses.fields(obj):
+        m = f.metadata
+        if "doc" not in m:
+            continue
+        value = getattr(obj, f.name)
+        if value is None and f.default is None:
+            continue
+        if m["choices"]:
+            _check_choice(owner, f.name, value, m["choices"])
+        elif m["entries"]:
+            _check_tuple(owner, f.name, value, (len(m["entries"]),))
+            for i, (label, v) in enumerate(zip(m["entries"], value, strict=True)):
+                _check_number(owner, f"{f.name}[{i}] ({label})", v, False, m)
+        elif isinstance(f.default, bool):
+            if not isinstance(value, bool):
+                raise TypeError(f"{owner}.{f.name} must be a bool, got {value!r}")
+        elif isinstance(f.default, (int, float)) or _bounded(m):
+            integer = isinstance(f.default, int) or "int" in str(f.type)
+            _check_number(owner, f.name, value, integer, m)
 
 
 def _check_finite(owner: str, **values: float) -> None:
@@ -67,14 +147,6 @@ def _check_finite(owner: str, **values: float) -> None:
             raise TypeError(f"{owner}.{name} must be a number, got {type(value).__name__}")
         if not math.isfinite(value):
             raise ValueError(f"{owner}.{name} must be finite, got {value!r}")
-
-
-def _check_int(owner: str, low: int, **values: int) -> None:
-    for name, value in values.items():
-        if isinstance(value, bool) or not isinstance(value, int):
-            raise TypeError(f"{owner}.{name} must be an int, got {type(value).__name__}")
-        if value < low:
-            raise ValueError(f"{owner}.{name} must be >= {low}, got {value}")
 
 
 def _check_tuple(owner: str, name: str, value: Any, sizes: tuple[int, ...]) -> None:
@@ -94,102 +166,84 @@ def _check_choice(owner: str, name: str, value: str, choices: tuple[str, ...]) -
         raise ValueError(f"{owner}.{name} must be one of {choices}, got {value!r}")
 
 
+# ---------------------------------------------------------------------- the sections
 @dataclass(frozen=True)
 class WorldConfig:
     """How the world is laid out. ``preset="random"`` draws a new world from the
     env's seed at every reset; the other presets are fixed maps."""
 
-    preset: str = "random"
-    width: float = 16.0  # m, arena extent along x
-    height: float = 16.0  # m, arena extent along y
-    n_landmarks: int = 20  # landmarks in random worlds (IDs 0..n-1)
-    n_obstacles: int = 6  # box obstacles in random worlds
-    obstacle_size: tuple[float, float] = (0.6, 2.0)  # m, min/max box side
-    landmark_spacing: float = 1.0  # m, minimum distance between two landmarks
-    clearance: float = 0.4  # m, landmark distance from walls and obstacles
-    wall_thickness: float = 0.1  # m, radius of the wall segments
+    preset: str = option(
+        "random", "the world: drawn anew at every reset, or a fixed map", choices=PRESETS
+    )
+    width: float = option(16.0, "arena extent along x", "m", above=0)
+    height: float = option(16.0, "arena extent along y", "m", above=0)
+    n_landmarks: int = option(20, "landmarks in random worlds (IDs 0..n-1)", low=1)
+    n_obstacles: int = option(6, "box obstacles in random worlds", low=0)
+    obstacle_size: tuple[float, float] = option(
+        (0.6, 2.0), "min and max side of a random box obstacle", "m", above=0,
+        entries=("min", "max"),
+    )  # fmt: skip
+    landmark_spacing: float = option(1.0, "minimum distance between two landmarks", "m", low=0)
+    clearance: float = option(0.4, "landmark distance from walls and obstacles", "m", low=0)
+    wall_thickness: float = option(0.1, "radius of the wall segments", "m", above=0)
 
     def __post_init__(self) -> None:
         _plain_fields(self)
-        _check_choice("WorldConfig", "preset", self.preset, PRESETS)
-        _check_positive("WorldConfig", width=self.width, height=self.height)
-        _check_int("WorldConfig", 1, n_landmarks=self.n_landmarks)
-        _check_int("WorldConfig", 0, n_obstacles=self.n_obstacles)
-        _check_tuple("WorldConfig", "obstacle_size", self.obstacle_size, (2,))
+        check_options(self)
         lo, hi = self.obstacle_size
-        _check_positive("WorldConfig", obstacle_size_min=lo, obstacle_size_max=hi)
         if lo > hi:
             raise ValueError(f"WorldConfig.obstacle_size min {lo} exceeds max {hi}")
-        _check_non_negative(
-            "WorldConfig", landmark_spacing=self.landmark_spacing, clearance=self.clearance
-        )
-        _check_positive("WorldConfig", wall_thickness=self.wall_thickness)
 
 
 @dataclass(frozen=True)
 class RobotConfig:
     """A circular unicycle robot."""
 
-    radius: float = 0.25  # m
-    max_speed: float = 1.0  # m/s, |v| at action 1.0
-    max_turn_rate: float = 1.5  # rad/s, |ω| at action 1.0
-    mass: float = 10.0  # kg
+    radius: float = option(0.25, "the robot's radius", "m", above=0)
+    max_speed: float = option(1.0, "|forward speed| at action 1.0", "m/s", above=0)
+    max_turn_rate: float = option(1.5, "|turn rate| at action 1.0", "rad/s", above=0)
+    mass: float = option(10.0, "the robot's mass (pymunk's contacts)", "kg", above=0)
 
     def __post_init__(self) -> None:
         _plain_fields(self)
-        _check_positive(
-            "RobotConfig",
-            radius=self.radius,
-            max_speed=self.max_speed,
-            max_turn_rate=self.max_turn_rate,
-            mass=self.mass,
-        )
+        check_options(self)
 
 
 @dataclass(frozen=True)
 class SensorConfig:
     """The landmark sensor (seed 000 range-bearing, or seed 004 cartesian)."""
 
-    measurement_model: str = "range_bearing"  # or "cartesian": z = R(θ)ᵀ(m − t)
-    max_range: float = 5.0  # m
-    fov: float = 2.0 * math.pi / 3.0  # rad, full opening angle centred on the heading
-    range_std: float = 0.05  # m, σr
-    bearing_std: float = math.radians(1.0)  # rad, σφ
-    cartesian_std: float = 0.05  # m, σz for the cartesian model
-    detection_prob: float = 1.0  # probability a visible landmark is reported
-    max_detections: int | None = None  # rows of the padded array; None: one per landmark
-    scan_beams: int = 0  # proximity beams evenly spread over 360°; 0: no "scan" observation
-    scan_range: float = 3.0  # m, reach of the proximity beams
-    bumper: bool = False  # a contact sensor: a "bumper" observation, 1.0 after a blocked step
-    report_ids: bool = True  # False: detections carry no landmark ID (-1); the truth is in info
+    measurement_model: str = option(
+        "range_bearing",
+        "z = [r, φ] (seed 000), or z = R(θ)ᵀ(m − t), the landmark in the robot frame (seed 004)",
+        choices=MEASUREMENT_MODELS,
+    )
+    max_range: float = option(5.0, "the landmark sensor's range", "m", above=0)
+    fov: float = option(
+        2.0 * math.pi / 3.0, "full opening angle, centred on the heading", "rad", above=0,
+        high=2.0 * math.pi,
+    )  # fmt: skip
+    range_std: float = option(0.05, "σr of the range-bearing model", "m", low=0)
+    bearing_std: float = option(math.radians(1.0), "σφ of the range-bearing model", "rad", low=0)
+    cartesian_std: float = option(0.05, "σz of the cartesian model, per axis", "m", low=0)
+    detection_prob: float = option(
+        1.0, "probability that a visible landmark is reported", above=0, high=1
+    )
+    max_detections: int | None = option(
+        None, "rows of the padded detections; None: one per landmark", low=1
+    )
+    scan_beams: int = option(
+        0, "proximity beams evenly spread over 360°; 0: no scan observation", low=0
+    )
+    scan_range: float = option(3.0, "reach of the proximity beams", "m", above=0)
+    bumper: bool = option(False, "a contact sensor: 1.0 after a blocked step")
+    report_ids: bool = option(
+        True, "False: detections carry no landmark ID (-1); the truth is in info"
+    )
 
     def __post_init__(self) -> None:
         _plain_fields(self)
-        _check_choice(
-            "SensorConfig", "measurement_model", self.measurement_model, MEASUREMENT_MODELS
-        )
-        if not isinstance(self.report_ids, bool):
-            raise TypeError(f"SensorConfig.report_ids must be a bool, got {self.report_ids!r}")
-        _check_positive("SensorConfig", max_range=self.max_range, fov=self.fov)
-        if self.fov > 2.0 * math.pi:
-            raise ValueError(f"SensorConfig.fov must be <= 2π rad, got {self.fov}")
-        _check_non_negative(
-            "SensorConfig",
-            range_std=self.range_std,
-            bearing_std=self.bearing_std,
-            cartesian_std=self.cartesian_std,
-        )
-        _check_finite("SensorConfig", detection_prob=self.detection_prob)
-        if not 0.0 < self.detection_prob <= 1.0:
-            raise ValueError(
-                f"SensorConfig.detection_prob must be in (0, 1], got {self.detection_prob}"
-            )
-        if self.max_detections is not None:
-            _check_int("SensorConfig", 1, max_detections=self.max_detections)
-        _check_int("SensorConfig", 0, scan_beams=self.scan_beams)
-        _check_positive("SensorConfig", scan_range=self.scan_range)
-        if not isinstance(self.bumper, bool):
-            raise TypeError(f"SensorConfig.bumper must be a bool, got {self.bumper!r}")
+        check_options(self)
 
     @property
     def measurement_cov(self):
@@ -207,21 +261,25 @@ class OdometryConfig:
     action-space noise of seed 000. ``"velocity"``: u = (Δp, Δθ) with the diagonal
     control noise Σu = diag(σp² + βp·Δp², σθ² + βθ·Δθ²) of seed 004."""
 
-    motion_model: str = "odometry"
-    alphas: tuple[float, float, float, float] = (0.005, 0.002, 0.01, 0.001)  # α1..α4, unitless
-    velocity_noise: tuple[float, float, float, float] = (0.0, 0.0, 0.01, 0.02)
-    # (σp [m], σθ [rad], βp [unitless], βθ [unitless])
+    motion_model: str = option(
+        "odometry",
+        "u = (δrot1, δtr, δrot2) (seed 000), or u = (Δp, Δθ) (seed 004)",
+        choices=MOTION_MODELS,
+    )
+    alphas: tuple[float, float, float, float] = option(
+        (0.005, 0.002, 0.01, 0.001), "the odometry model's noise gains", low=0,
+        entries=("α1", "α2", "α3", "α4"),
+    )  # fmt: skip
+    velocity_noise: tuple[float, float, float, float] = option(
+        (0.0, 0.0, 0.01, 0.02),
+        "the velocity model's noise: σp (m), σθ (rad), βp, βθ",
+        low=0,
+        entries=("σp", "σθ", "βp", "βθ"),
+    )
 
     def __post_init__(self) -> None:
         _plain_fields(self)
-        _check_choice("OdometryConfig", "motion_model", self.motion_model, MOTION_MODELS)
-        _check_tuple("OdometryConfig", "alphas", self.alphas, (4,))
-        for i, a in enumerate(self.alphas):
-            _check_non_negative("OdometryConfig", **{f"alphas[{i}] (α{i + 1})": a})
-        _check_tuple("OdometryConfig", "velocity_noise", self.velocity_noise, (4,))
-        labels = ("σp", "σθ", "βp", "βθ")
-        for i, (label, v) in enumerate(zip(labels, self.velocity_noise, strict=True)):
-            _check_non_negative("OdometryConfig", **{f"velocity_noise[{i}] ({label})": v})
+        check_options(self)
 
 
 @dataclass(frozen=True)
@@ -229,16 +287,12 @@ class RewardConfig:
     """The raw env's scripting reward: a bonus per landmark seen for the first time,
     a penalty per step spent in collision."""
 
-    new_landmark_bonus: float = 1.0  # reward per first detection
-    collision_penalty: float = 0.1  # subtracted on a step with a collision
+    new_landmark_bonus: float = option(1.0, "reward per first detection of a landmark")
+    collision_penalty: float = option(0.1, "subtracted on a step with a collision")
 
     def __post_init__(self) -> None:
         _plain_fields(self)
-        _check_finite(
-            "RewardConfig",
-            new_landmark_bonus=self.new_landmark_bonus,
-            collision_penalty=self.collision_penalty,
-        )
+        check_options(self)
 
 
 @dataclass(frozen=True)
@@ -246,22 +300,22 @@ class FaultConfig:
     """Injected faults for robustness studies, all off by default (see
     :mod:`slam_env.world.kidnap`). Probabilities are per env step."""
 
-    outlier_rate: float = 0.0  # a spurious detection with a wrong (seen) landmark ID
-    clutter_rate: float = 0.0  # a spurious detection of no landmark at all (ID -1)
-    scan_dropout: float = 0.0  # the whole scan is lost
-    odometry_dropout: float = 0.0  # the odometry reads zero motion
-    odometry_bias: tuple[float, ...] | None = None  # added to every reading, model units
-    kidnap_rate: float = 0.0  # the robot is carried to a random free pose
+    outlier_rate: float = option(
+        0.0, "a spurious detection with a wrong (seen) landmark ID", low=0, high=1
+    )
+    clutter_rate: float = option(
+        0.0, "a spurious detection of no landmark at all (ID -1)", low=0, high=1
+    )
+    scan_dropout: float = option(0.0, "the whole scan is lost", low=0, high=1)
+    odometry_dropout: float = option(0.0, "the odometry reads zero motion", low=0, high=1)
+    odometry_bias: tuple[float, ...] | None = option(
+        None, "added to every odometry reading, in the model's units (3 or 2 entries)"
+    )
+    kidnap_rate: float = option(0.0, "the robot is carried to a random free pose", low=0, high=1)
 
     def __post_init__(self) -> None:
         _plain_fields(self)
-        for name in (
-            "outlier_rate", "clutter_rate", "scan_dropout", "odometry_dropout", "kidnap_rate",
-        ):  # fmt: skip
-            value = getattr(self, name)
-            _check_finite("FaultConfig", **{name: value})
-            if not 0.0 <= value <= 1.0:
-                raise ValueError(f"FaultConfig.{name} must be in [0, 1], got {value}")
+        check_options(self)
         if self.odometry_bias is not None:
             # 3 entries for the odometry model, 2 for the velocity model
             _check_tuple("FaultConfig", "odometry_bias", self.odometry_bias, (3, 2))
@@ -291,11 +345,18 @@ class EnvConfig:
     odometry: OdometryConfig = field(default_factory=OdometryConfig)
     reward: RewardConfig = field(default_factory=RewardConfig)
     faults: FaultConfig = field(default_factory=FaultConfig)
-    dt: float = 0.2  # s, one env step (policy rate 5 Hz)
-    physics_substeps: int = 4  # pymunk steps per env step
-    action_type: str = "continuous"  # or "discrete": motion primitives
-    terminate_when_all_detected: bool = False  # end the episode once every landmark was seen
-    layout: Any = None  # user world: Layout | dict | path; None uses world.preset
+    dt: float = option(0.2, "one env step (the policy's rate, 5 Hz)", "s", above=0)
+    physics_substeps: int = option(4, "pymunk steps per env step", low=1)
+    action_type: str = option(
+        "continuous", "a Box of (speed, turn rate) fractions, or motion primitives",
+        choices=ACTION_TYPES,
+    )  # fmt: skip
+    terminate_when_all_detected: bool = option(
+        False, "end the episode on the step the last landmark is first seen"
+    )
+    layout: Any = option(
+        None, "a user's world: a Layout, a dict or a JSON/YAML path; None: world.preset"
+    )
 
     def __post_init__(self) -> None:
         _plain_fields(self)
@@ -316,11 +377,7 @@ class EnvConfig:
                 f"odometry_bias needs {dims} entries for motion_model="
                 f"{self.odometry.motion_model!r}, got {len(bias)}"
             )
-        _check_positive("EnvConfig", dt=self.dt)
-        _check_int("EnvConfig", 1, physics_substeps=self.physics_substeps)
-        _check_choice("EnvConfig", "action_type", self.action_type, ACTION_TYPES)
-        if not isinstance(self.terminate_when_all_detected, bool):
-            raise TypeError("EnvConfig.terminate_when_all_detected must be a bool")
+        check_options(self)
 
 
 _SECTIONS: dict[str, type] = {

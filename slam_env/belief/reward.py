@@ -3,8 +3,9 @@ kernel :func:`slam_env.kernels.belief.reward.active_slam_reward`)."""
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
+
+from slam_env.config import check_options, option
 
 __all__ = ["REWARD_TERMS", "ActiveSLAMRewardWeights"]
 
@@ -15,16 +16,11 @@ REWARD_TERMS = ("information_gain", "pose_uncertainty", "collision", "step", "co
 class ActiveSLAMRewardWeights:
     """Weights of the active-SLAM reward terms (see :class:`ActiveSLAMReward`)."""
 
-    information_gain: float = 0.1  # per nat of entropy removed
-    pose_uncertainty: float = 0.1  # per m of pose standard deviation, each step
-    collision: float = 1.0  # per step in contact
-    step: float = 0.01  # per step
-    coverage: float = 0.0  # per share of the arena newly swept (needs a CoverageWrapper)
+    information_gain: float = option(0.1, "per nat of entropy the step removed", low=0)
+    pose_uncertainty: float = option(0.1, "per m of pose standard deviation, each step", low=0)
+    collision: float = option(1.0, "per step in contact", low=0)
+    step: float = option(0.01, "per step", low=0)
+    coverage: float = option(0.0, "per share of the arena newly swept (needs coverage)", low=0)
 
     def __post_init__(self) -> None:
-        for name in REWARD_TERMS:
-            value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, (int, float)):
-                raise TypeError(f"reward weight {name} must be a number, got {value!r}")
-            if not math.isfinite(value) or value < 0:
-                raise ValueError(f"reward weight {name} must be finite and >= 0, got {value}")
+        check_options(self)

@@ -12,7 +12,6 @@ the same kernels.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 from typing import Any, NamedTuple
 
@@ -37,14 +36,10 @@ from slam_env.core.random_blocks import RandomBlocks
 from slam_env.core.raw import RawCore
 from slam_env.ekf import EKFSLAM
 from slam_env.ekf.batch import FilterBatch
+from slam_env.info_keys import info_row
 from slam_env.kernels.belief.active_step import belief_outputs, filter_step, step_reward
 from slam_env.kernels.belief.diagnostics import (
     DIAGNOSTICS,
-    HEADING_ERROR,
-    MAP_RMSE,
-    POSE_ERROR,
-    POSE_NEES,
-    POSE_STD,
 )
 from slam_env.kernels.belief.divergence import DIVERGENCE_REJECTIONS, diverged
 from slam_env.kernels.ekf.association_score import SCORE_NAMES
@@ -337,39 +332,13 @@ class ActiveCore(BatchCore):
         return {k: (v[pick] if pick is not None else v).copy() for k, v in obs.items()}
 
     def info(self, index: int) -> dict[str, Any]:
-        """Sub-env ``index``'s info, fresh objects (see :class:`ActiveSLAMEnv`)."""
-        info = self.raw.info(index)
-        info["raw_reward_terms"] = info.pop("reward_terms")
-        diag = self.diagnostics[:, index].tolist()
-        info["pose_error"] = diag[POSE_ERROR]
-        info["heading_error"] = diag[HEADING_ERROR]
-        # Undefined metrics are absent, never NaN: the map error before the first
-        # landmark, the NEES of a covariance gone non-finite.
-        if not math.isnan(diag[MAP_RMSE]):
-            info["map_rmse"] = diag[MAP_RMSE]
-        if not math.isnan(diag[POSE_NEES]):
-            info["pose_nees"] = diag[POSE_NEES]
-        info["landmarks_known"] = int(self.filters.n[index])
-        info["rejected"] = int(self.filters.n_rejected[index])
-        info["entropy"] = float(self.entropy[index])
-        info["pose_std"] = diag[POSE_STD]
-        info["belief_clipped"] = bool(self.clipped[index])
-        info["consecutive_rejections"] = int(self.in_a_row[index])
-        info["diverged"] = bool(self.diverged[index])
-        if self.coverage is not None:
-            info["swept_fraction"] = float(self.swept_fraction[index])
-        info["reward_terms"] = dict(zip(REWARD_TERMS, self.terms[index].tolist(), strict=True))
-        if self.associates:
-            for key, scores in (
-                ("association", self.score_step),
-                ("association_episode", self.score_episode),
-            ):
-                info[key] = dict(zip(SCORE_NAMES, scores[index].tolist(), strict=True))
-        return info
+        """Sub-env ``index``'s info, fresh objects: its row of :meth:`infos`."""
+        return info_row(*self.infos(), index)
 
     def infos(self) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
-        """Every sub-env's info, stacked (B, …), fresh arrays, and the masks of the keys
-        that not every sub-env reports (the undefined metrics)."""
+        """Every sub-env's info, stacked (B, …), fresh arrays, in the order of
+        :data:`~slam_env.info_keys.ACTIVE_INFO`, and the masks of the keys that not
+        every sub-env reports (the undefined metrics)."""
         info, _ = self.raw.infos()
         info["raw_reward_terms"] = info.pop("reward_terms")
         diag = {name: self.diagnostics[row].copy() for name, row in _DIAGNOSTIC_ROW.items()}

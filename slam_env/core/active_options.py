@@ -11,7 +11,7 @@ from typing import Any
 
 from slam_env.belief.encodings import OBSERVATION_MODES
 from slam_env.belief.reward import ActiveSLAMRewardWeights
-from slam_env.config import EnvConfig, plain
+from slam_env.config import EnvConfig, option, plain
 from slam_env.ekf import CORRECTION_MODES, DATA_ASSOCIATIONS, DEFAULT_GATE, LINEARIZATIONS, checks
 
 # Proximity beams in the active-SLAM observation, unless the options set them.
@@ -72,18 +72,60 @@ class ActiveSLAMOptions:
     """The arguments of :class:`slam_env.envs.active_slam.ActiveSLAMEnv` other than the
     world's options, checked (see its docstring for their meaning)."""
 
-    observation: str = "egocentric"
-    correction: str = "sequential"
-    gate: float | None = DEFAULT_GATE
-    filter_alphas: Any = None
-    filter_control_noise: Any = None
-    filter_measurement_cov: Any = None
-    reward_weights: Any = None
-    coverage: bool = True
-    data_association: str = "known"
-    linearization: str = "standard"
-    new_landmark_sightings: int = 1
-    wide_pairing_scans: int = 1
+    observation: str = option(
+        "egocentric",
+        "the belief as flat features; the exact mean, covariance and known-mask; or the "
+        "count-independent local map (it needs coverage)",
+        choices=ACTIVE_OBSERVATION_MODES,
+    )
+    correction: str = option(
+        "sequential",
+        "one observation at a time, re-linearised, or the whole scan stacked",
+        choices=CORRECTION_MODES,
+    )
+    gate: float | None = option(
+        DEFAULT_GATE,
+        "χ² threshold on an innovation's Mahalanobis distance (2 dof), or None to accept "
+        "everything; the default is the 99.9% quantile",
+        above=0,
+    )
+    filter_alphas: Any = option(
+        None, "the filter's α1..α4 (a mismatched filter); None: the env's alphas"
+    )
+    filter_control_noise: Any = option(
+        None, "the filter's (σp, σθ, βp, βθ); None: the env's velocity_noise"
+    )
+    filter_measurement_cov: Any = option(
+        None, "the filter's 2×2 Q, symmetric positive definite; None: the sensor's"
+    )
+    reward_weights: Any = option(
+        None,
+        "an ActiveSLAMRewardWeights or a dict of its fields (information_gain, "
+        "pose_uncertainty, collision, step, coverage); None: their defaults",
+    )
+    coverage: bool = option(
+        True,
+        "the swept-area memory and its features, which a policy needs to know where it "
+        "has not looked yet",
+    )
+    data_association: str = option(
+        "known",
+        "the sensor's IDs, or the filter associates by itself (needed with report_ids=False)",
+        choices=DATA_ASSOCIATIONS,
+    )
+    linearization: str = option(
+        "standard",
+        "the standard EKF, First-Estimates Jacobian, or observability-constrained",
+        choices=LINEARIZATIONS,
+    )
+    new_landmark_sightings: int = option(
+        1, "2: a new landmark waits for a second sighting (keeps clutter out)", low=1, high=2
+    )
+    wide_pairing_scans: int = option(
+        1,
+        "with 'jcbb', a loop-closing pairing waits for that many consecutive scans",
+        low=1,
+    )
     weights: ActiveSLAMRewardWeights = field(init=False)
 
     def __post_init__(self) -> None:

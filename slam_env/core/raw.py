@@ -15,6 +15,7 @@ import numpy as np
 from slam_env.config import EnvConfig
 from slam_env.core.batch import BatchCore
 from slam_env.core.random_blocks import RandomBlocks
+from slam_env.info_keys import info_row
 from slam_env.kernels.base.pinning import pin
 from slam_env.kernels.stream.faults import (
     CLUTTER_UNIFORMS,
@@ -132,7 +133,7 @@ class RawCore(BatchCore):
         self._fault_fields = tuple(self._faults)
         self._params_fields = tuple(self._params)
         self._out_fields = tuple(self.out)  # the active mask of one sub-env
-        self._views: dict[int, tuple[dict[str, np.ndarray], dict[str, np.ndarray]]] = {}
+        self._views: dict[int, dict[str, np.ndarray]] = {}
         self._touched = np.zeros(b, dtype=bool)  # the sub-envs a step moves or resets
         self._stepping = np.zeros(b, dtype=bool)  # the sub-envs a step moves
         # raw_step's compiled code pinned to its arguments, and those arguments but the
@@ -151,22 +152,14 @@ class RawCore(BatchCore):
         self._views = {}
         self._step_call = None
 
-    def _row_views(self, index: int) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray]]:
-        """Views of sub-env ``index``'s rows of what :meth:`observation` and :meth:`info`
-        copy out, made at the first call for ``index`` (taking a row costs about as
-        much as copying it)."""
+    def _row_views(self, index: int) -> dict[str, np.ndarray]:
+        """Views of sub-env ``index``'s rows of the observation, made at the first call
+        for ``index`` (taking a row costs about as much as copying it)."""
         views = self._views.get(index)
         if views is None:
-            worlds = self.worlds
-            obs = {key: array[index] for key, array in self._observed().items()}
-            info = {
-                "pose": worlds.poses[index],
-                "landmark_positions": worlds.landmarks[index],
-                "landmark_ids": worlds.landmark_ids[index],
-                "seen": self.seen[index],
-                "odometry_true": self.control_true[index],
+            views = self._views[index] = {
+                key: array[index] for key, array in self._observed().items()
             }
-            views = self._views[index] = (obs, info)
         return views
 
     # ------------------------------------------------------------------ stepping
@@ -271,7 +264,7 @@ class RawCore(BatchCore):
     # ------------------------------------------------------------------ reading
     def observation(self, index: int) -> dict[str, np.ndarray]:
         """Sub-env ``index``'s observation, fresh arrays."""
-        return {key: row.copy() for key, row in self._row_views(index)[0].items()}
+        return {key: row.copy() for key, row in self._row_views(index).items()}
 
     def observations(self) -> dict[str, np.ndarray]:
         """Every sub-env's observation, stacked (B, …), fresh arrays."""
@@ -322,27 +315,9 @@ class RawCore(BatchCore):
         return None
 
     def info(self, index: int) -> dict[str, Any]:
-        """Sub-env ``index``'s info (the ground truth), fresh objects."""
-        rows = self._row_views(index)[1]
-        out = self.out
-        info = {
-            "pose": rows["pose"].copy(),
-            "landmark_positions": rows["landmark_positions"].copy(),
-            "landmark_ids": rows["landmark_ids"].copy(),
-            "collision": self.collided.item(index),
-            # Fixed size (one entry per landmark ID), so that vector envs stack it.
-            "seen": rows["seen"].copy(),
-            "odometry_true": rows["odometry_true"].copy(),
-            "reward_terms": {
-                "new_landmarks": out.new_terms.item(index),
-                "collision": out.collision_terms.item(index),
-            },
-        }
-        if self.faults_on:
-            info["kidnapped"] = self.kidnapped.item(index)
-        if self.reports_truth:
-            info["detection_ids"] = self.detection_ids(index)
-        return info
+        """Sub-env ``index``'s info (the ground truth), fresh objects: its row of
+        :meth:`infos`."""
+        return info_row(*self.infos(), index)
 
     def detection_ids(self, index: int | slice) -> np.ndarray:
         """(D,) int64 (or (B, D) for a slice): the true landmark ID of each detection
@@ -351,8 +326,9 @@ class RawCore(BatchCore):
         return np.where(rows < self.det_count[index, None], self.det_ids[index], -1)
 
     def infos(self) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
-        """Every sub-env's info, stacked (B, …), fresh arrays, and the masks of the keys
-        that not every sub-env reports (none here: every key, every sub-env)."""
+        """Every sub-env's info, stacked (B, …), fresh arrays, in the order of
+        :data:`~slam_env.info_keys.RAW_INFO`, and the masks of the keys that not every
+        sub-env reports (none here: every key, every sub-env)."""
         worlds = self.worlds
         info = {
             "pose": worlds.poses.copy(),

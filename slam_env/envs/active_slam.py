@@ -9,7 +9,6 @@ directly.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
@@ -17,8 +16,8 @@ import numpy as np
 from slam_env.belief.overlay import BeliefOverlay
 from slam_env.belief.reward import ActiveSLAMRewardWeights
 from slam_env.core.active_options import DEFAULT_SCAN_BEAMS, ActiveSLAMOptions
-from slam_env.ekf import DEFAULT_GATE, EKFSLAM
-from slam_env.envs.options import active_core
+from slam_env.ekf import EKFSLAM
+from slam_env.envs.options import active_core, options_signature
 from slam_env.envs.single import CoreEnv
 
 __all__ = ["DEFAULT_SCAN_BEAMS", "LIVE_FIGURES", "ActiveSLAMEnv"]
@@ -78,40 +77,12 @@ class ActiveSLAMEnv(CoreEnv):
     (``info["_map_rmse"]``).
     """
 
-    def __init__(
-        self,
-        render_mode: str | None = None,
-        observation: str = "egocentric",
-        correction: str = "sequential",
-        gate: float | None = DEFAULT_GATE,
-        filter_alphas: tuple[float, float, float, float] | None = None,
-        filter_control_noise: tuple[float, float, float, float] | None = None,
-        filter_measurement_cov: np.ndarray | None = None,
-        reward_weights: ActiveSLAMRewardWeights | Mapping[str, float] | None = None,
-        coverage: bool = True,
-        data_association: str = "known",
-        linearization: str = "standard",
-        new_landmark_sightings: int = 1,
-        wide_pairing_scans: int = 1,
-        **env_options: Any,
-    ) -> None:
-        opts = ActiveSLAMOptions(
-            observation,
-            correction,
-            gate,
-            filter_alphas,
-            filter_control_noise,
-            filter_measurement_cov,
-            reward_weights,
-            coverage,
-            data_association,
-            linearization,
-            new_landmark_sightings,
-            wide_pairing_scans,
-        )
+    def __init__(self, render_mode: str | None = None, **options: Any) -> None:
+        # The signature below lists the options (ActiveSLAMOptions is their table).
+        core = active_core(1, options)
         # A batch of one: the native vector env runs the same core for B sub-envs.
-        self._setup(active_core(1, opts, env_options), render_mode)
-        self.options = opts
+        self._setup(core, render_mode)
+        self.options = core.options
         # What render() draws beyond the belief: the estimated path and live figures,
         # kept only when rendering.
         self._estimated_trail: list[tuple[float, float]] = []
@@ -149,3 +120,7 @@ class ActiveSLAMEnv(CoreEnv):
         overlay.trail = np.array(self._estimated_trail, dtype=np.float64).reshape(-1, 2)
         overlay.figures = dict(self._figures)
         return overlay
+
+
+# The signature's keyword options are the table's, with their defaults (help(), IDEs).
+ActiveSLAMEnv.__init__.__signature__ = options_signature(ActiveSLAMEnv.__init__, ActiveSLAMOptions)

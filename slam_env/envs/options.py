@@ -4,6 +4,8 @@ batched core, for B sub-envs (the single envs are B = 1 of the same call)."""
 
 from __future__ import annotations
 
+import dataclasses
+import inspect
 from collections.abc import Mapping
 from typing import Any
 
@@ -13,7 +15,14 @@ from slam_env.core.active import ActiveCore
 from slam_env.core.active_options import ACTIVE_SLAM_DEFAULTS, ActiveSLAMOptions
 from slam_env.core.raw import RawCore
 
-__all__ = ["ACTIVE_ARGUMENTS", "ENV_ARGUMENTS", "active_config", "active_core", "raw_core"]
+__all__ = [
+    "ACTIVE_ARGUMENTS",
+    "ENV_ARGUMENTS",
+    "active_config",
+    "active_core",
+    "options_signature",
+    "raw_core",
+]
 
 # The envs' own arguments besides the config options (for the list of valid names).
 ENV_ARGUMENTS = ("config", "render_mode")
@@ -31,13 +40,27 @@ def raw_core(num_envs: int, options: Mapping[str, Any]) -> RawCore:
     return RawCore(config, num_envs)
 
 
-def active_core(
-    num_envs: int, options: ActiveSLAMOptions, env_options: Mapping[str, Any]
-) -> ActiveCore:
+def active_core(num_envs: int, options: Mapping[str, Any]) -> ActiveCore:
     """The active-SLAM core of ``num_envs`` sub-envs of ``slam_env/ActiveSLAM-v0`` with
-    its own ``options`` and the world's ``env_options``, checked first."""
+    ``options``: its own (:class:`ActiveSLAMOptions`) and the world's, checked first."""
+    env_options = dict(options)
+    own = {k: env_options.pop(k) for k in ActiveSLAMOptions.argument_names() if k in options}
+    active = ActiveSLAMOptions(**own)
     check_option_names(env_options, ACTIVE_ARGUMENTS)
-    return ActiveCore(active_config(options, env_options, num_envs), num_envs, options)
+    return ActiveCore(active_config(active, env_options, num_envs), num_envs, active)
+
+
+def options_signature(init: Any, table: type) -> inspect.Signature:
+    """``init``'s signature with the fields of the option ``table`` as keyword-only
+    parameters (their defaults), before its ``**options``: what ``help()`` shows."""
+    params = list(inspect.signature(init).parameters.values())
+    rest = params.pop()  # **options: the world's
+    params += [
+        inspect.Parameter(f.name, inspect.Parameter.KEYWORD_ONLY, default=f.default)
+        for f in dataclasses.fields(table)
+        if f.init
+    ]
+    return inspect.Signature([*params, rest])
 
 
 def active_config(

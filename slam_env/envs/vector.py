@@ -20,7 +20,6 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
 from slam_env.core.active import ActiveCore
-from slam_env.core.active_options import ActiveSLAMOptions
 from slam_env.core.raw import RawCore
 from slam_env.ekf import EKFSLAM
 from slam_env.envs.actions import DISCRETE_PRIMITIVES, parse_actions
@@ -297,8 +296,7 @@ class LandmarksVectorEnv(SlamVectorEnv):
 
 
 def _active_core(num_envs: int, **options: Any) -> ActiveCore:
-    own = {k: options.pop(k) for k in ActiveSLAMOptions.argument_names() if k in options}
-    return active_core(num_envs, ActiveSLAMOptions(**own), options)
+    return active_core(num_envs, options)
 
 
 class ActiveSLAMVectorEnv(SlamVectorEnv):
