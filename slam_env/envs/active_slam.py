@@ -29,52 +29,62 @@ LIVE_FIGURES = ("entropy", "map_rmse", "pose_nees")
 class ActiveSLAMEnv(CoreEnv):
     """Active SLAM: act on the EKF-SLAM belief, be paid for reducing its uncertainty.
 
-    The world, robot, sensors and episode end are those of
-    :class:`slam_env.envs.landmarks.LandmarksEnv`; the observation is the belief of
-    :class:`slam_env.belief.ekf_wrapper.EKFSLAMWrapper` with the swept-area memory of
-    :class:`slam_env.belief.coverage_wrapper.CoverageWrapper`, and the reward that of
-    :class:`slam_env.belief.reward_wrapper.ActiveSLAMReward` (terms in ``info["reward_terms"]``).
+    ## Description
+    The world, robot and sensors of :class:`slam_env.envs.landmarks.LandmarksEnv`, with
+    an EKF-SLAM filter (:class:`slam_env.ekf.EKFSLAM`) folding in each step's odometry
+    reading and detections. The agent sees the filter's belief, not the truth, and is
+    paid for making it certain: this is the environment active-SLAM policies are
+    trained on. It computes what the wrapper stack ``LandmarksEnv → EKFSLAMWrapper →
+    CoverageWrapper → ActiveSLAMReward`` (:mod:`slam_env.belief`) computes, in a few
+    compiled calls; the filter is ``env.unwrapped.filter``.
+
+    ## Action Space
+    As :class:`~slam_env.envs.landmarks.LandmarksEnv`'s.
+
+    ## Observation Space
+    ``observation="egocentric"`` (default): a flat ``Box`` of float32, the belief
+    features of :class:`~slam_env.belief.encodings.EgocentricEncoding` (7 + 4M for M
+    landmark slots), then the proximity scan and the bumper (on by default here: a
+    policy must see obstacles, which the landmark map does not hold), then 1 + 24
+    swept-area features (:class:`~slam_env.belief.coverage.CoverageGrid`).
+    ``"full"``: a ``Dict`` with the belief's ``mean``, flattened ``cov`` and ``known``
+    mask (:class:`~slam_env.belief.encodings.FullEncoding`) and the ``scan``,
+    ``bumper`` and ``coverage`` keys. ``"local"``: a ``Dict`` whose size does not
+    depend on the world (:mod:`slam_env.belief.local_encoding`), for training across
+    worlds. Values beyond the bounds are clipped onto them (``info["belief_clipped"]``).
+
+    ## Rewards
+    The named terms of :class:`~slam_env.belief.reward.ActiveSLAMRewardWeights`, each
+    weight times its signal: the entropy the step removed from the belief, the pose's
+    standard deviation, a collision, a time cost and (off by default) the share of the
+    arena newly swept; reported in ``info["reward_terms"]``.
+
+    ## Starting State
+    As :class:`~slam_env.envs.landmarks.LandmarksEnv`'s; the filter starts at the true
+    start pose, known exactly, and folds in the first scan.
+
+    ## Episode End
+    As :class:`~slam_env.envs.landmarks.LandmarksEnv`'s. A numerical breakdown of the
+    filter is reported as ``info["diverged"]``, never raised out of ``step``.
 
     ## Arguments
-    ``observation`` (``"egocentric"`` | ``"full"`` | ``"local"``: the one whose size does
-    not depend on the world, see :mod:`slam_env.belief.local_encoding`; it needs the
-    coverage), ``correction`` (``"sequential"`` |
-    ``"batch"``), ``gate`` (χ² threshold or ``None``), ``filter_alphas``,
-    ``filter_control_noise``, ``filter_measurement_cov`` (a mismatched filter; default:
-    the env's true noise), ``data_association`` (``"known"``: the sensor's IDs;
-    ``"nearest_neighbor"`` | ``"jcbb"``: the filter chooses, needed with
-    ``report_ids=False``), ``new_landmark_sightings`` (1, or 2: a new landmark waits
-    for a second sighting, which keeps clutter out of the map), ``wide_pairing_scans``
-    (1, or more with ``"jcbb"``: a loop-closing pairing waits for that many consecutive
-    scans, see :class:`slam_env.ekf.EKFSLAM`), ``linearization``
-    (``"standard"`` | ``"fej"`` | ``"oc"``),
-    ``reward_weights`` (an :class:`ActiveSLAMRewardWeights` or a dict of its fields),
-    ``coverage`` (default ``True``: a
-    :class:`slam_env.belief.coverage_wrapper.CoverageWrapper` adds the swept-area features, which a
-    policy needs to know where it has not looked yet); every other option goes to
-    :class:`LandmarksEnv`, where ``scan_beams`` defaults to 16 and ``bumper`` to
-    ``True`` here: a policy needs to see obstacles, which the landmark map does not
-    hold, and to feel when one blocks it (a corner can hide between two beams). The
-    egocentric observation is the belief features, then the scan and the bumper, then
-    the coverage features; the full and the local ones hold them as the ``scan``,
-    ``bumper`` and ``coverage`` keys. These defaults hold whichever form the world's options take
-    (``fov=2.5`` or ``sensor={"fov": 2.5}``); a whole ``config`` is taken as it is.
-    Options are checked (types, numpy scalars, the resource budget of
-    :mod:`slam_env.budget`) before anything is built.
+    ``gym.make("slam_env/ActiveSLAM-v0", render_mode=None, **options)``: the options of
+    :class:`~slam_env.core.active_options.ActiveSLAMOptions` (the table of the env's
+    page lists each with its default and limits), and every option of
+    ``Landmarks-v0``, flat or nested, where ``scan_beams`` defaults to 16 and
+    ``bumper`` to ``True`` (a whole ``config`` is taken as it is). Options are checked,
+    the resource budget of :mod:`slam_env.budget` too, before anything is built.
 
     ## Info
-    The raw env's, then the belief's diagnostics (see
-    :class:`slam_env.belief.ekf_wrapper.EKFSLAMWrapper`), ``swept_fraction`` and the reward terms.
-    Where the filter associates, ``association`` (this step's ``correct``, ``wrong`` and
-    ``missed`` associations, and the map's ``duplicated`` landmarks) and
-    ``association_episode`` (the same, summed over the episode), judged against the
-    truth (:mod:`slam_env.kernels.ekf.association_score`). A numerical breakdown of the
-    filter is reported as ``diverged``, never raised out of ``step``. ``info`` never
-    holds NaN: a metric that is undefined is absent, so ``map_rmse`` appears with the
-    first landmark in the belief (read it with ``info.get``). Absent rather than a
-    sentinel: equal runs give equal infos, no made-up value slips into an average, and
-    Gymnasium's vector envs mark the sub-envs that did not report it
-    (``info["_map_rmse"]``).
+    The keys of :data:`slam_env.info_keys.ACTIVE_INFO`: the raw env's truth, the
+    belief's diagnostics, the swept share and the reward terms, and, where the filter
+    associates, the associations judged against the truth. An undefined metric is
+    absent, never NaN: ``map_rmse`` appears with the first landmark in the belief.
+
+    ## Version History
+    * v0: the EKF-SLAM belief (standard, FEJ, OC), known IDs or nearest-neighbour and
+      JCBB association, three observations, the coverage features; 0.2.0 moved the
+      modules into layers without changing a stream.
     """
 
     def __init__(self, render_mode: str | None = None, **options: Any) -> None:

@@ -73,9 +73,9 @@ class LandmarksEnv(CoreEnv):
     which terminates the episode on the step in which the last landmark is first seen.
 
     ## Info
-    ``pose`` (3,) true pose, ``landmark_positions`` (N, 2) and ``landmark_ids`` (N,)
-    true map, ``collision`` (bool), ``seen`` (M,) bool: landmark ID i detected so far,
-    ``odometry_true`` the noise-free control, ``reward_terms``.
+    The keys of :data:`slam_env.info_keys.RAW_INFO`: the true pose and map, the
+    contact, the landmarks seen so far, the noise-free odometry, the reward terms, and
+    with faults or hidden IDs what the observation does not tell.
 
     ## Arguments
     ``gym.make("slam_env/Landmarks-v0", render_mode=None, config=None, **options)``:
@@ -88,6 +88,11 @@ class LandmarksEnv(CoreEnv):
     memory is checked against :mod:`slam_env.budget` before anything is built.
     ``reset`` takes no options. ``close`` releases the renderer; the env stays usable
     (``step``, ``reset``, and ``render``, which reopens its window), as Gymnasium's are.
+
+    ## Version History
+    * v0: the range-bearing (seed 000) and cartesian (seed 004) sensors with IDs, the
+      odometry and velocity models, faults, hidden IDs and clutter, user layouts;
+      0.2.0 moved the modules into layers without changing a stream.
     """
 
     def __init__(
