@@ -153,15 +153,17 @@ def _write_steps(path: Path, records: dict[str, list[EpisodeRecord]]) -> None:
                     writer.writerow([_csv_value(v) for v in row])
 
 
-def _json_safe(value: Any) -> Any:
+def json_safe(value: Any) -> Any:
+    """``value`` as JSON takes it: numpy scalars as Python values, tuples as lists, paths
+    as strings, a non-finite float as None (null)."""
     if isinstance(value, float) and not math.isfinite(value):
         return None
     if isinstance(value, dict):
-        return {k: _json_safe(v) for k, v in value.items()}
+        return {k: json_safe(v) for k, v in value.items()}
     if isinstance(value, (list, tuple)):
-        return [_json_safe(v) for v in value]
+        return [json_safe(v) for v in value]
     if isinstance(value, np.generic):
-        return _json_safe(value.item())
+        return json_safe(value.item())
     if isinstance(value, Path):
         return str(value)
     return value
@@ -173,7 +175,9 @@ def _csv_value(value: Any) -> Any:
     return value
 
 
-def _write_csv(path: Path, columns: list[str], rows: Sequence[dict[str, Any]]) -> None:
+def write_csv(path: Path, columns: list[str], rows: Sequence[dict[str, Any]]) -> None:
+    """``rows`` (dicts) into the CSV file ``path``, in the order of ``columns``; a
+    non-finite float is an empty cell."""
     with open(path, "w", newline="", encoding="utf-8") as fh:
         writer = csv.DictWriter(fh, fieldnames=columns)
         writer.writeheader()
@@ -352,8 +356,8 @@ def evaluate(
         "steps_csv": out / "steps.csv.gz",
         "results_json": out / "results.json",
     }
-    _write_csv(files["summary_csv"], summary_columns(), summary_rows)
-    _write_csv(files["episodes_csv"], episode_columns(), episode_rows)
+    write_csv(files["summary_csv"], summary_columns(), summary_rows)
+    write_csv(files["episodes_csv"], episode_columns(), episode_rows)
     _write_steps(files["steps_csv"], records)
     payload = {
         "settings": settings,
@@ -362,7 +366,7 @@ def evaluate(
         "episodes": episode_rows,
     }
     files["results_json"].write_text(
-        json.dumps(_json_safe(payload), indent=2, allow_nan=False) + "\n"
+        json.dumps(json_safe(payload), indent=2, allow_nan=False) + "\n"
     )
     files.update(_plot(records, plot_episode, out))
     result = EvaluationResult(summary_rows, episode_rows, settings, files, records)

@@ -27,7 +27,7 @@ import yaml
 
 from agents.common.arguments import check_count
 from agents.common.env import make_env
-from agents.evaluation.compare import AGENT_METRICS, _json_safe, consistency_series
+from agents.evaluation.compare import AGENT_METRICS, consistency_series, json_safe
 from agents.evaluation.statistics import CONFIDENCE
 from agents.registry import SHIPPED_POLICY, agent_label, make_agent
 from agents.rollouts.episodes import run_episode
@@ -168,7 +168,7 @@ def demo(
     files["metrics_json"] = out / "demo_metrics.json"
     payload = {"agent": spec, "seed": seed, "env_options": env_options or {}, "metrics": metrics}
     files["metrics_json"].write_text(
-        json.dumps(_json_safe(payload), indent=2, allow_nan=False) + "\n"
+        json.dumps(json_safe(payload), indent=2, allow_nan=False) + "\n"
     )
     result = DemoResult(spec, seed, metrics, files)
     if verbose:

@@ -52,7 +52,7 @@ from agents.common.arguments import check_count
 from agents.common.base import Agent
 from agents.common.env import make_env
 from agents.common.episode_length import REFERENCE_ARENA, episode_length
-from agents.evaluation.compare import _json_safe, _write_csv
+from agents.evaluation.compare import json_safe, write_csv
 from agents.evaluation.statistics import mean_ci
 from agents.registry import agent_label, make_agent, parse_agent_specs
 from agents.rollouts.episodes import run_episode
@@ -242,8 +242,8 @@ def run_suite(
         "suite_md": out / "suite.md",
         "results_json": out / "results.json",
     }
-    _write_csv(files["suite_csv"], list(rows[0]), rows)
-    _write_csv(files["suite_episodes_csv"], list(episode_rows[0]), episode_rows)
+    write_csv(files["suite_csv"], list(rows[0]), rows)
+    write_csv(files["suite_episodes_csv"], list(episode_rows[0]), episode_rows)
     markdown = suite_markdown(rows, [agent_label(s) for s in specs], suite)
     files["suite_md"].write_text(markdown)
     payload = {
@@ -259,7 +259,7 @@ def run_suite(
         "episodes": episode_rows,
     }
     files["results_json"].write_text(
-        json.dumps(_json_safe(payload), indent=2, allow_nan=False) + "\n"
+        json.dumps(json_safe(payload), indent=2, allow_nan=False) + "\n"
     )
     files.update(_plot(rows, out))
     if verbose:

@@ -27,7 +27,9 @@ from slam_env.kernels.stream.observe import RawOutputs
 from slam_env.kernels.stream.odometry import odometry_uniforms
 from slam_env.kernels.stream.raw_step import raw_step
 from slam_env.kernels.stream.sensing import SensorParams, scan_uniforms, sensing_scratch
+from slam_env.render.renderer import Frame
 from slam_env.sensing.raw_observation import raw_observation_space
+from slam_env.world.frames import robot_to_world
 from slam_env.world.layouts import Layout
 from slam_env.world.world_batch import WorldBatch
 
@@ -289,9 +291,6 @@ class RawCore(BatchCore):
     def frame(self, index: int, trail: Any, belief: Any = None) -> Any:
         """The plain-data :class:`slam_env.render.renderer.Frame` of sub-env ``index``, with its
         past positions ``trail`` ((T, 2), m) and a belief overlay to draw, if any."""
-        from slam_env.render.renderer import Frame
-        from slam_env.world.frames import robot_to_world
-
         k = int(self.det_count[index])
         pose = self.worlds.poses[index]
         z = self.det_z[index, :k]

@@ -12,6 +12,8 @@ from gymnasium import spaces
 from gymnasium.error import ResetNeeded
 
 from slam_env.envs.actions import DISCRETE_PRIMITIVES, parse_action
+from slam_env.render.renderer import Renderer
+from slam_env.render.visibility import visible_region
 from slam_env.world.layouts import Layout, as_floats, as_int
 from slam_env.world.pymunk_world import World
 
@@ -222,8 +224,6 @@ class CoreEnv(gym.Env):
     def render_frame(self):
         """The plain-data :class:`slam_env.render.renderer.Frame` of the current state, with
         the sensor's visible region traced in the world and the step number."""
-        from slam_env.render.visibility import visible_region
-
         frame = self._core.frame(0, self._trail, self._overlay())
         sensor = self.config.sensor
         frame.visible_region = visible_region(self.world, frame.pose, sensor.max_range, sensor.fov)
@@ -232,8 +232,6 @@ class CoreEnv(gym.Env):
 
     def _get_renderer(self):
         if self._renderer is None:
-            from slam_env.render.renderer import Renderer
-
             cfg = self.config
             self._renderer = Renderer(
                 self.layout,

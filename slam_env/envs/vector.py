@@ -25,6 +25,7 @@ from slam_env.ekf import EKFSLAM
 from slam_env.envs.actions import DISCRETE_PRIMITIVES, parse_actions
 from slam_env.envs.options import active_core, raw_core
 from slam_env.envs.registration import DEFAULT_MAX_EPISODE_STEPS
+from slam_env.render.renderer import Renderer
 
 AUTORESET_MODES = (AutoresetMode.NEXT_STEP, AutoresetMode.SAME_STEP)
 
@@ -251,7 +252,6 @@ class SlamVectorEnv(VectorEnv):
         return tuple(self._render_one(b) for b in range(self.num_envs))
 
     def _render_one(self, index: int) -> np.ndarray:
-        from slam_env.render.renderer import Renderer
 
         if self._renderers[index] is None:
             cfg = self.config

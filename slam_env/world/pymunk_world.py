@@ -126,7 +126,7 @@ class World:
         self._h = self.dt / self.substeps  # s, one sub-step
         # The pose (x, y, θ) and the clear disk (cx, cy, d: nothing the robot can hit
         # lies closer than d to (cx, cy)) as (1, 3) rows that the motion kernel reads:
-        # the world's own, or a WorldBatch's (see _use_rows). _clear_disk mirrors the
+        # the world's own, or a WorldBatch's (see use_rows). _clear_disk mirrors the
         # disk as Python floats for the queries; a batch's motion kernel may replace the
         # row's disk, so _settle reads it back first.
         self._pose = np.zeros((1, 3))
@@ -160,7 +160,7 @@ class World:
         self._surface = (math.inf, math.inf)
         self._blocked_at = (math.inf, math.inf)  # the last point a query found blocked
         x, y, theta = layout.start_pose
-        self._place(x, y, theta)
+        self.place(x, y, theta)
 
     # ----------------------------------------------------------------- construction
 
@@ -224,10 +224,12 @@ class World:
         world of a WorldBatch is moved by the batch's)."""
         return Drive(1, self.robot.radius, self.dt, self.substeps)
 
-    def _place(self, x: float, y: float, theta: float) -> None:
+    def place(self, x: float, y: float, theta: float) -> None:
+        """Set the robot's pose (x m, y m, θ rad), θ wrapped, without moving through
+        the world (its contacts are the caller's to settle)."""
         self._pose[0] = (x, y, wrap_heading(theta))
 
-    def _use_rows(self, pose: np.ndarray, disk: np.ndarray) -> None:
+    def use_rows(self, pose: np.ndarray, disk: np.ndarray) -> None:
         """Keep the pose and the clear disk in ``pose`` and ``disk`` from now on ((1, 3)
         C-contiguous rows, e.g. a WorldBatch's), which take their current values."""
         pose[0] = self._pose[0]
@@ -283,7 +285,7 @@ class World:
         )
         if reason is not None:
             raise ValueError(f"set_pose({x:.4g}, {y:.4g}): the robot {reason}")
-        self._place(x, y, theta)
+        self.place(x, y, theta)
 
     # ----------------------------------------------------------------- dynamics
 

@@ -74,7 +74,7 @@ class WorldBatch:
                 validated=True,
             )
             self.worlds[index] = world
-            world._use_rows(self.poses[index : index + 1], self.disks[index : index + 1])
+            world.use_rows(self.poses[index : index + 1], self.disks[index : index + 1])
         else:
             world.relayout(layout)
         self.landmarks[index] = world.landmark_positions
@@ -93,7 +93,7 @@ class WorldBatch:
         world = self.worlds[index]
         pose = world.pose if pose is None else pose
         world.relayout(layout)
-        world._place(*pose)
+        world.place(*pose)
         self.landmarks[index] = world.landmark_positions
         self._set_geometry(index, layout)
 
@@ -121,7 +121,7 @@ class WorldBatch:
         self.__dict__.update(state)
         for index, world in enumerate(self.worlds):
             if world is not None:
-                world._use_rows(self.poses[index : index + 1], self.disks[index : index + 1])
+                world.use_rows(self.poses[index : index + 1], self.disks[index : index + 1])
 
     def kidnap(self, index: int, rng: np.random.Generator) -> bool:
         """Carry robot ``index`` to a random free pose drawn from ``rng``; False when
