@@ -1,0 +1,132 @@
+"""Time to the first step: import, ``gym.make``, ``reset`` and the first ``step`` of a
+fresh process, cold (an empty numba cache directory: every kernel compiled) and warm
+(a second process on the cache the first one wrote), for both IDs and their native
+vector envs, beside CartPole-v1's in the same run.
+
+    .venv/bin/python -m benchmarks.bench_startup [--repeats 3] [--vector 8]
+                     [--ids Landmarks ActiveSLAM] [--no-cold]
+
+Each measurement is a child process (``python -c``), so that nothing is imported or
+compiled before it starts; cold children get a directory of their own as
+``NUMBA_CACHE_DIR``, which the warm children then reuse. Wall and CPU seconds are the
+child's own clocks; the kernels and specialisations it compiled (or loaded) are read
+off numba's dispatchers. The figures that matter are the ratios against CartPole-v1,
+and the medians of ``--repeats`` children.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import statistics
+import subprocess
+import sys
+import tempfile
+
+from agents.common.arguments import non_negative_int, positive_int
+
+IDS = {"Landmarks": "slam_env/Landmarks-v0", "ActiveSLAM": "slam_env/ActiveSLAM-v0"}
+STAGES = ("import", "make", "reset", "step")
+
+# The child: times each stage, then counts what numba compiled or loaded from its cache.
+CHILD = r"""
+import json, sys, time
+env_id, vector = sys.argv[1], int(sys.argv[2])
+wall, cpu = [time.perf_counter()], [time.process_time()]
+def mark():
+    wall.append(time.perf_counter()); cpu.append(time.process_time())
+import gymnasium as gym
+if env_id.startswith("slam_env"):
+    import slam_env
+mark()
+if vector:
+    env = gym.make_vec(env_id, num_envs=vector, vectorization_mode="vector_entry_point")
+else:
+    env = gym.make(env_id)
+mark()
+env.reset(seed=0)
+mark()
+env.step(env.action_space.sample())
+mark()
+counts = {"kernels": 0, "specialisations": 0, "compiled": 0, "loaded": 0}
+if env_id.startswith("slam_env"):
+    from slam_env.kernels.base.compiling import KERNELS
+    used = [k for k in KERNELS if k.signatures]
+    counts = {
+        "kernels": len(used),
+        "specialisations": sum(len(k.signatures) for k in used),
+        "compiled": sum(sum(k.stats.cache_misses.values()) for k in used),
+        "loaded": sum(sum(k.stats.cache_hits.values()) for k in used),
+    }
+print(json.dumps({
+    "wall": [b - a for a, b in zip(wall, wall[1:])],
+    "cpu": [b - a for a, b in zip(cpu, cpu[1:])],
+    **counts,
+}))
+"""
+
+
+def child(env_id: str, vector: int, cache: str) -> dict:
+    env = dict(os.environ, NUMBA_CACHE_DIR=cache, SDL_VIDEODRIVER="dummy")
+    done = subprocess.run(
+        [sys.executable, "-c", CHILD, env_id, str(vector)],
+        capture_output=True,
+        text=True,
+        env=env,
+        check=True,
+        timeout=1800,
+    )
+    return json.loads(done.stdout.strip().splitlines()[-1])
+
+
+def median_of(runs: list[dict]) -> dict:
+    out = {
+        "wall": [statistics.median(r["wall"][i] for r in runs) for i in range(4)],
+        "cpu": [statistics.median(r["cpu"][i] for r in runs) for i in range(4)],
+    }
+    for key in ("kernels", "specialisations", "compiled", "loaded"):
+        out[key] = statistics.median(r[key] for r in runs)
+    return out
+
+
+def row(label: str, figures: dict, cartpole: dict) -> str:
+    first = sum(figures["wall"])
+    ratio = first / sum(cartpole["wall"])
+    stages = "  ".join(f"{s} {w:7.3f}" for s, w in zip(STAGES, figures["wall"], strict=True))
+    return (
+        f"{label:<34} {stages}  first step {first:7.2f} s ({ratio:6.1f}× CartPole)  "
+        f"cpu {sum(figures['cpu']):7.2f} s  kernels {figures['kernels']:3.0f}  "
+        f"specialisations {figures['specialisations']:3.0f}  compiled {figures['compiled']:3.0f}"
+        f"  loaded {figures['loaded']:3.0f}"
+    )
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--repeats", type=positive_int, default=3)
+    parser.add_argument("--vector", type=non_negative_int, default=8, help="0: no vector env")
+    parser.add_argument("--ids", nargs="+", choices=sorted(IDS), default=sorted(IDS))
+    parser.add_argument("--no-cold", action="store_true", help="warm processes only")
+    args = parser.parse_args()
+
+    cases = [(name, IDS[name], 0) for name in args.ids]
+    if args.vector:
+        cases += [(f"{name} vector B={args.vector}", IDS[name], args.vector) for name in args.ids]
+    cartpole = median_of([child("CartPole-v1", 0, "") for _ in range(args.repeats)])
+    print(row("CartPole-v1", cartpole, cartpole))
+    with tempfile.TemporaryDirectory() as shared:
+        for label, env_id, vector in cases:
+            if not args.no_cold:
+                colds = []
+                for _ in range(args.repeats):
+                    with tempfile.TemporaryDirectory() as empty:
+                        colds.append(child(env_id, vector, empty))
+                print(row(f"{label}, cold", median_of(colds), cartpole), flush=True)
+            child(env_id, vector, shared)  # fills the shared cache, if it is not
+            warm = [child(env_id, vector, shared) for _ in range(args.repeats)]
+            print(row(f"{label}, warm", median_of(warm), cartpole), flush=True)
+
+
+if __name__ == "__main__":
+    main()
