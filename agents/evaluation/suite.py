@@ -4,9 +4,9 @@ are compared by how fast and how well they map (``slam-env evaluate --suite NAME
 One world is not enough to tell good explorers apart: on the default world both
 planners map every landmark within 500 steps. A suite runs every agent on several
 settings (presets, arena sizes, landmark counts, sensors), each for the same seeds,
-with an episode length that scales with the arena (:func:`agents.learning.world_sampling.
-episode_length`: 500 steps at 16 m), and reports the metrics of
-:mod:`agents.rollouts.suite_metrics` per setting and agent.
+with an episode length that scales with the arena
+(:func:`agents.common.episode_length.episode_length`: 500 steps at 16 m), and reports
+the metrics of :mod:`agents.rollouts.suite_metrics` per setting and agent.
 
 The ``default`` suite (3 seeds per setting, seeds 10000–10002, never used in training):
 
