@@ -9,7 +9,7 @@ RPY := $(RLLIB_VENV)/bin/python
 # The env contract (checkers, native vector env, options), run again on Ray's gymnasium.
 CONTRACT_TESTS := tests/envs/test_checkers.py tests/envs/test_vector.py tests/envs/test_options.py
 
-.PHONY: setup setup-rllib demo test test-slow test-rllib lint bench clean
+.PHONY: setup setup-rllib demo test test-slow test-rllib lint bench docs clean
 
 setup: $(VENV)/.installed
 
@@ -49,6 +49,14 @@ lint: setup
 	$(VENV)/bin/ruff check .
 	$(VENV)/bin/ruff format --check .
 
+# The documentation site: every warning an error, every cross-reference checked.
+$(VENV)/.docs-installed: $(VENV)/.installed pyproject.toml
+	$(PY) -m pip install --quiet -e '.[dev,docs]'
+	touch $@
+
+docs: $(VENV)/.docs-installed  ## the documentation site, in docs/_build/html
+	SDL_VIDEODRIVER=dummy $(VENV)/bin/sphinx-build -W --keep-going -n -b html docs docs/_build/html
+
 bench: setup
 	$(PY) -m benchmarks.bench_env
 	$(PY) -m benchmarks.bench_filter
@@ -56,4 +64,4 @@ bench: setup
 	if command -v valgrind >/dev/null; then $(PY) -m benchmarks.bench_instructions; fi
 
 clean:
-	rm -rf $(VENV) $(RLLIB_VENV) $(OUT) .pytest_cache .ruff_cache
+	rm -rf $(VENV) $(RLLIB_VENV) $(OUT) docs/_build .pytest_cache .ruff_cache
