@@ -12,7 +12,7 @@ CONTRACT_TESTS := tests/envs/test_checkers.py tests/envs/test_vector.py tests/en
 # The core install alone (no extras), in a virtual environment of its own.
 CORE_VENV ?= .venv-core
 
-.PHONY: setup setup-rllib demo test test-slow test-rllib test-core lint bench clean
+.PHONY: setup setup-rllib demo test test-slow test-rllib test-core lint bench docs clean
 
 setup: $(VENV)/.installed
 
@@ -62,6 +62,11 @@ lint: setup
 	$(VENV)/bin/ruff format --check .
 	$(VENV)/bin/lint-imports
 
+# The documentation site: every warning an error, every cross-reference checked (the
+# docs extra is part of dev).
+docs: setup  ## the documentation site, in docs/_build/html
+	SDL_VIDEODRIVER=dummy $(VENV)/bin/sphinx-build -W --keep-going -n -b html docs docs/_build/html
+
 bench: setup
 	$(PY) -m benchmarks.bench_env
 	$(PY) -m benchmarks.bench_filter
@@ -69,4 +74,4 @@ bench: setup
 	if command -v valgrind >/dev/null; then $(PY) -m benchmarks.bench_instructions; fi
 
 clean:
-	rm -rf $(VENV) $(RLLIB_VENV) $(CORE_VENV) $(OUT) .pytest_cache .ruff_cache
+	rm -rf $(VENV) $(RLLIB_VENV) $(CORE_VENV) $(OUT) docs/_build .pytest_cache .ruff_cache

@@ -1,7 +1,7 @@
 """The resource budget (slam_env/budget.py): every option that scales work or memory is
 refused at construction, before anything is built, with the option, the derived figure
 and the limit; what fits is not refused; the memory figure bounds what is allocated;
-the README lists every limit."""
+the documentation's resource budget page (docs/budget.md) lists every limit."""
 
 from __future__ import annotations
 
@@ -21,7 +21,7 @@ from slam_env.config import WorldConfig, make_config
 from slam_env.world.layout_generators import landmark_capacity
 
 RAW, ACTIVE = "slam_env/Landmarks-v0", "slam_env/ActiveSLAM-v0"
-README = Path(__file__).resolve().parents[1] / "README.md"
+BUDGET_PAGE = Path(__file__).resolve().parents[1] / "docs" / "budget.md"
 
 
 def _layout(ids, width=20.0, height=20.0):
@@ -285,21 +285,21 @@ LIMITS = {
 }
 
 
-def test_the_readme_lists_every_limit_with_its_value():
+def test_the_budget_page_lists_every_limit_with_its_value():
     constants = {
         name: getattr(budget, name) for name in dir(budget) if re.fullmatch(r"[A-Z_]+", name)
     }
     limits = {name for name in constants if name.startswith("MAX_") or name.endswith("_LIMIT")}
     assert limits == set(LIMITS)
-    section = README.read_text().split("## Resource budget")[1].split("\n## ")[0]
+    section = BUDGET_PAGE.read_text().split("# Resource budget")[1].split("\n## ")[0]
     for name, shown in LIMITS.items():
         row = next(line for line in section.splitlines() if f"`{name}`" in line)
         assert f"| {shown} |" in row, row
-        assert constants[name] == _readme_number(shown)
+        assert constants[name] == _page_number(shown)
 
 
-def _readme_number(shown: str) -> float:
-    """A number as the README writes it: 1,000; 10³⁰; 2 GiB."""
+def _page_number(shown: str) -> float:
+    """A number as the budget page writes it: 1,000; 10³⁰; 2 GiB."""
     if shown.endswith(" GiB"):
         return float(shown[: -len(" GiB")]) * 2**30
     if shown.startswith("10") and not shown[2:].isascii():

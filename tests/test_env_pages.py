@@ -73,3 +73,18 @@ def test_an_option_without_its_entry_gets_no_row() -> None:
     assert "doc" not in fields[-1].metadata
     rows = generator().option_rows(Sensors)
     assert not any("`new_option`" in row for row in rows)  # so the test above would fail
+
+
+def test_the_committed_pages_are_current() -> None:
+    """docs/envs/*.md are committed (GitHub shows them) and written afresh by the docs
+    build; a change of an option, an info key or an env docstring regenerates them:
+    ``python docs/_ext/env_pages.py``."""
+    pages = generator()
+    for env_id, name in (
+        ("slam_env/Landmarks-v0", "landmarks"),
+        ("slam_env/ActiveSLAM-v0", "active_slam"),
+    ):
+        committed = (pages.PAGES / f"{name}.md").read_text()
+        assert committed == pages.env_page(env_id), (
+            f"docs/envs/{name}.md is stale: run python docs/_ext/env_pages.py"
+        )

@@ -6,8 +6,7 @@ planners map every landmark within 500 steps. A suite runs every agent on severa
 settings (presets, arena sizes, landmark counts, sensors), each for the same seeds,
 with an episode length that scales with the arena
 (:func:`agents.common.episode_length.episode_length`: 500 steps at 16 m), and reports
-the metrics of
-:mod:`agents.rollouts.suite_metrics` per setting and agent.
+the metrics of :mod:`agents.rollouts.suite_metrics` per setting and agent.
 
 The ``default`` suite (3 seeds per setting, seeds 10000–10002, never used in training):
 

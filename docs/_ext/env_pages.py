@@ -1,4 +1,5 @@
-"""The env pages of the docs, generated from the code as Gymnasium generates its own:
+"""The env pages of the docs, generated from the code as Gymnasium generates its own
+(they are committed too, and a test checks they are current):
 each env class's docstring (its fixed sections), its spaces, and the tables of
 options (:mod:`slam_env.config`, :class:`slam_env.core.active_options.ActiveSLAMOptions`)
 and info keys (:mod:`slam_env.info_keys`). Sphinx runs :func:`write_pages` before it
@@ -148,6 +149,17 @@ def env_page(env_id: str) -> str:
         f"| action space | `{_cell(env.action_space)}` |",
         f"| observation space | `{_cell(_space_summary(env.observation_space))}` |",
         f"| episode | {spec.max_episode_steps} steps (`max_episode_steps`) |",
+        "",
+        "```python",
+        "import gymnasium as gym",
+        "",
+        "import slam_env  # registers the IDs",
+        "",
+        f'env = gym.make("{env_id}")',
+        "obs, info = env.reset(seed=0)",
+        "for _ in range(100):",
+        "    obs, reward, terminated, truncated, info = env.step(env.action_space.sample())",
+        "```",
         "",
     ]
     for heading, body in sections.items():

@@ -42,22 +42,34 @@ class ActiveSLAMEnv(CoreEnv):
     As :class:`~slam_env.envs.landmarks.LandmarksEnv`'s.
 
     ## Observation Space
-    ``observation="egocentric"`` (default): a flat ``Box`` of float32, the belief
-    features of :class:`~slam_env.belief.encodings.EgocentricEncoding` (7 + 4M for M
-    landmark slots), then the proximity scan and the bumper (on by default here: a
-    policy must see obstacles, which the landmark map does not hold), then 1 + 24
-    swept-area features (:class:`~slam_env.belief.coverage.CoverageGrid`).
-    ``"full"``: a ``Dict`` with the belief's ``mean``, flattened ``cov`` and ``known``
-    mask (:class:`~slam_env.belief.encodings.FullEncoding`) and the ``scan``,
-    ``bumper`` and ``coverage`` keys. ``"local"``: a ``Dict`` whose size does not
-    depend on the world (:mod:`slam_env.belief.local_encoding`), for training across
-    worlds. Values beyond the bounds are clipped onto them (``info["belief_clipped"]``).
+    M is the number of landmark slots (the largest landmark ID + 1), B the scan's
+    beams:
+
+    | ``observation=`` | space | content |
+    |---|---|---|
+    | ``"egocentric"`` (default) | ``Box((7 + 4M + B + 1 + 25,))`` | x̂/width, ŷ/height, cos θ̂, sin θ̂, tanh(σx/1 m), tanh(σy/1 m), tanh(σθ/0.5 rad); per landmark slot i: known flag, its position in the estimated robot frame / max_range (2), tanh(√trace Σᵢ / 1 m), zero while unknown; then the B proximity beams and the bumper; then the 25 coverage features |
+    | ``"full"`` | ``Dict(mean, cov, known, scan, bumper, coverage)`` | the belief exactly, slotted by landmark ID: mean (3+2M,), the covariance flattened ((3+2M)²,), known (M,) (:func:`~slam_env.belief.encodings.unpack_full_belief` reshapes it) |
+    | ``"local"`` | ``Dict(robot, landmarks, local_map, scan, bumper, coverage)``, the same for every world | no slot per landmark, so one policy runs on any landmark count, arena, preset or sensor (:mod:`slam_env.belief.local_encoding`): the robot's 8 figures, the 8 nearest known landmarks (4 numbers each), and a 4 × 16 × 16 map of 1 m cells around the robot, turned with its heading (unswept share, obstacles the scan hit, outside the arena, known landmarks); it needs ``coverage=True`` |
+
+    The coverage features (``coverage=False`` leaves them out) are the swept-area
+    memory a policy needs to know where it has not looked yet, since the belief holds
+    only the landmarks found: the share of the arena the landmark sensor has swept from
+    the estimated pose, then the unswept share in each 45° sector around the estimated
+    heading in the rings 0–R, R–2R and beyond 2R (R the sensor range). A belief outside
+    the bounds (or NaN, or infinite) is clipped onto them (``info["belief_clipped"]``).
 
     ## Rewards
-    The named terms of :class:`~slam_env.belief.reward.ActiveSLAMRewardWeights`, each
-    weight times its signal: the entropy the step removed from the belief, the pose's
-    standard deviation, a collision, a time cost and (off by default) the share of the
-    arena newly swept; reported in ``info["reward_terms"]``.
+    The reward = Σ of the terms (``info["reward_terms"]``), a Python float; the weights
+    w are ``reward_weights``, every one finite and >= 0. A reset's reward is 0, and the
+    next step's gains are measured from it.
+
+    | term | default w | value | why |
+    |---|---|---|---|
+    | ``information_gain`` | 0.1 | w × (H₍t−1₎ − H_t) | the entropy (nats) the step removed from the belief over *all* M slots, H = ½ log det(2πe (Σ + 10⁻⁴ I)) with an unseen slot carrying a prior uniform over the arena (variances width²/12, height²/12): ≈ +1.2 per new landmark, a few hundredths per re-observation, negative while dead reckoning |
+    | ``pose_uncertainty`` | 0.1 | −w × σ_pose | σ_pose = √(Σxx + Σyy) in m: pays for closing loops before the robot is lost |
+    | ``collision`` | 1 | −w on a step in contact | the map knows nothing of obstacles |
+    | ``step`` | 0.01 | −w | finishing early is better |
+    | ``coverage`` | 0 | w × (s_t − s₍t−1₎) | s the swept share of the arena (``swept_fraction``): a dense signal for learning to explore, off by default |
 
     ## Starting State
     As :class:`~slam_env.envs.landmarks.LandmarksEnv`'s; the filter starts at the true

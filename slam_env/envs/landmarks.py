@@ -26,6 +26,20 @@ class LandmarksEnv(CoreEnv):
     is no ground truth in the observation: this is the stream a SLAM front end sees.
     ``slam_env/ActiveSLAM-v0`` puts an EKF-SLAM filter behind it.
 
+    The robot is a circle driven as a unicycle at 5 Hz (``dt=0.2`` s, 4 sub-steps). A
+    collision *stops* its translation (its rotation goes on), as for a bumper-equipped
+    differential drive: a wheeled robot cannot slide sideways, and a sideways slip is
+    what the seeds' odometry model cannot describe. The sensor sees the landmarks
+    within ``max_range`` and the field of view ``fov`` whose line of sight no wall,
+    obstacle or other post blocks. Lines of sight, the scan and the robots' moves are
+    compiled queries against the worlds' static geometry
+    (:mod:`slam_env.kernels.world`) that give exactly the answers of pymunk's own
+    queries, grazing rays included; the rare move within 1e-9 m of a contact is
+    settled by pymunk itself. The sensor models also stand alone, for a world of your
+    own: :class:`~slam_env.sensing.LandmarkSensor` and
+    :class:`~slam_env.sensing.OdometrySensor` (``env.unwrapped.sensor`` and
+    ``env.unwrapped.odometry``).
+
     ## Action Space
     ``action_type="continuous"`` (default): ``Box(-1, 1, (2,), float32)``, the forward
     speed and turn rate as fractions of ``max_speed`` (m/s) and ``max_turn_rate``

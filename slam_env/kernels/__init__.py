@@ -16,7 +16,8 @@ Conventions every kernel follows:
 * Outputs are preallocated by the caller and passed in; kernels allocate nothing in
   their loops and touch no Python objects. Those that run at every step (the EKF's and
   every call of an env step) allocate nothing at all, their scratch passed in too, and
-  are compiled without numba's reference counting (:func:`borrowing_kernel`).
+  are compiled without numba's reference counting
+  (:func:`~slam_env.kernels.base.compiling.borrowing_kernel`).
 * Related arrays and constants are grouped in NamedTuples, but a kernel called from
   Python takes their fields as a plain tuple (``tuple(named)``) and rebuilds the
   NamedTuple inside (``Geometry(*fields)``): numba types a NamedTuple argument at

@@ -2,7 +2,8 @@
 
 A scripted env hands :class:`ActiveSLAMReward` the infos a belief wrapper would (a
 known entropy drop, a known newly swept share, a step in contact, a plain step), so
-each term's exact value and sign is derived here from the README's formula:
+each term's exact value and sign is derived here from the formula of the env's
+documentation (docs/envs/active_slam.md, "Reward terms"):
 
     reward = w_ig·(H_{t−1} − H_t) − w_pose·σ_pose − w_col·[contact] − w_step
              + w_cov·(s_t − s_{t−1})
@@ -22,7 +23,7 @@ import pytest
 from slam_env.belief.reward import REWARD_TERMS, ActiveSLAMRewardWeights
 from slam_env.belief.reward_wrapper import ActiveSLAMReward
 
-README = Path(__file__).resolve().parents[2] / "README.md"
+ENV_PAGE = Path(__file__).resolve().parents[2] / "docs" / "envs" / "active_slam.md"
 DEFAULTS = {
     "information_gain": 0.1,
     "pose_uncertainty": 0.1,
@@ -172,16 +173,17 @@ def test_zero_weights_are_accepted_and_silence_their_terms():
         ActiveSLAMReward(ScriptedBelief(infos), weights=zero)  # a dict is not weights
 
 
-def _readme_reward_table() -> dict[str, tuple[str, str]]:
-    """The README's reward table: term -> (default weight, value)."""
-    text = README.read_text()
-    section = text[text.index('Reward terms (`info["reward_terms"]`') :]
+def _documented_reward_table() -> dict[str, tuple[str, str]]:
+    """The env page's reward table: term -> (default weight, value)."""
+    text = ENV_PAGE.read_text()
+    start = text.index("\n## Rewards\n")
+    section = text[start : text.index("\n## ", start + 1)]
     rows = re.findall(r"^\| `(\w+)` \| ([^|]+) \| ([^|]+) \|", section, flags=re.M)
     return {name: (weight.strip(), value.strip()) for name, weight, value in rows}
 
 
-def test_readme_states_the_formula_and_default_weights_the_tests_check():
-    table = _readme_reward_table()
+def test_the_docs_state_the_formula_and_default_weights_the_tests_check():
+    table = _documented_reward_table()
     assert list(table) == list(REWARD_TERMS)
     for name, (weight, _) in table.items():
         assert float(weight) == DEFAULTS[name], name
@@ -193,5 +195,5 @@ def test_readme_states_the_formula_and_default_weights_the_tests_check():
         "step": "−w",
         "coverage": "w × (s_t − s₍t−1₎)",
     }
-    text = README.read_text()
+    text = ENV_PAGE.read_text()
     assert "reward = Σ of the terms" in text

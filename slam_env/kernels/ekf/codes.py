@@ -1,8 +1,8 @@
-"""The codes every filter kernel shares (:mod:`.ekf`, :mod:`.ekf_correction`,
-:mod:`.ekf_landmarks`, :mod:`.association`, :mod:`.association_score`) and the Python
-side reads back (:mod:`slam_env.ekf.filter`): the columns of the per-world
-configuration, the modes, the per-observation statuses and the per-world error codes.
-Constants only, nothing compiled.
+"""The codes every filter kernel shares (:mod:`slam_env.kernels.ekf.filter`,
+:mod:`.corrections`, :mod:`.new_landmarks`, :mod:`.association`,
+:mod:`.association_score`) and the Python side reads back (:mod:`slam_env.ekf.filter`):
+the columns of the per-world configuration, the modes, the per-observation statuses and
+the per-world error codes. Constants only, nothing compiled.
 
 Configuration, per world
     params (B, 12) float64         :data:`NOISE` (α1..α4 for odometry, σp, σθ, βp, βθ for

@@ -1,10 +1,10 @@
 """The corrections of the batched EKF-SLAM update (:func:`slam_env.kernels.ekf.filter.update`
-puts them together with the new landmarks of :mod:`.ekf_landmarks`): linearising an
+puts them together with the new landmarks of :mod:`.new_landmarks`): linearising an
 observation (:func:`add_observation`), the Joseph-form correction of a group of
 observations (:func:`correct_group`, its factor :func:`_joseph_factor`), and the check
 and the one application of the deferred covariance factors (:func:`factor_check`,
 :func:`apply_factors`). None of them writes the state but the last, which runs only
-once everything is checked. The codes they return are those of :mod:`.ekf_codes`."""
+once everything is checked. The codes they return are those of :mod:`.codes`."""
 
 from __future__ import annotations
 

@@ -1,9 +1,9 @@
 """Batched EKF-SLAM: prediction and update of B filters in one call each, over the
 state arrays the vector env holds for its worlds. The correspondences are given (the
 landmark IDs, or the choice of :mod:`slam_env.kernels.ekf.association`).
-:func:`update` puts together the pieces of :mod:`.ekf_correction` (the Joseph-form
-corrections, the one pass over P) and :mod:`.ekf_landmarks` (the new landmarks, their
-commit); the codes both share are :mod:`.ekf_codes`.
+:func:`update` puts together the pieces of :mod:`.corrections` (the Joseph-form
+corrections, the one pass over P) and :mod:`.new_landmarks` (the new landmarks, their
+commit); the codes both share are :mod:`.codes`.
 
 State of B filters with room for M landmarks (``dmax = 3 + 2M``)
     x (B, dmax) float64            means; world b's live part is ``x[b, :3 + 2 n[b]]``
@@ -18,7 +18,7 @@ State of B filters with room for M landmarks (``dmax = 3 + 2M``)
 Slot i is rows ``3+2i, 4+2i``; new landmarks take the next slots in the order first seen.
 
 Configuration, per world: ``params`` (B, 12) float64 and ``modes`` (B, 5) int64, whose
-columns and codes :mod:`.ekf_codes` names, with the statuses and error codes.
+columns and codes :mod:`.codes` names, with the statuses and error codes.
 
 Linearisation: the standard EKF evaluates every Jacobian at the latest estimate. The
 First-Estimates Jacobian EKF (Huang, Mourikis & Roumeliotis) evaluates the prediction's
@@ -37,7 +37,7 @@ innovations and noise Jacobians are the same in all three.
 Every call is atomic per world: a world whose step fails (bad input, an innovation
 covariance that is not positive definite, a non-finite intermediate, a covariance that
 would overflow) keeps its mean, covariance, maps and counters exactly as they were, and
-its ``error`` entry says why (:data:`~.ekf_codes.ERROR_NAMES`). The work is
+its ``error`` entry says why (:data:`~.codes.ERROR_NAMES`). The work is
 compute-then-commit: a prediction computes its O(d) rows before writing any; an update
 works on a copy of the O(d) mean, keeps its corrections of P as deferred factors
 (``P ← P − Uᵀ U``) and the new landmarks' rows in the workspace, checks them all, and

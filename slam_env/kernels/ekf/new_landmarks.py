@@ -1,9 +1,9 @@
 """The new landmarks of the batched EKF-SLAM update (seed 000 §2.2;
 :func:`slam_env.kernels.ekf.filter.update` calls them after the corrections of
-:mod:`.ekf_correction`): their initialisation from the corrected belief
+:mod:`.corrections`): their initialisation from the corrected belief
 (:func:`new_landmarks`, which writes no state) and, once everything is checked, their
 commit into the state (:func:`commit_new_landmarks`). The codes they return are those
-of :mod:`.ekf_codes`."""
+of :mod:`.codes`."""
 
 from __future__ import annotations
 

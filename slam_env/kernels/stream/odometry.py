@@ -1,8 +1,9 @@
 """Odometry of B worlds: the control that explains each motion, and a noisy reading of it.
 
 Model ``"odometry"`` (seed 000): u = (δrot1, δtr, δrot2) with the action-space noise M(u);
-model ``"velocity"`` (seed 004): u = (Δp, Δθ) with Σu (both in :mod:`.models`, which the
-filter uses too: a noise-matched filter is matched exactly). The reading is
+model ``"velocity"`` (seed 004): u = (Δp, Δθ) with Σu (both in
+:mod:`slam_env.kernels.base.models`, which the filter uses too: a noise-matched filter is
+matched exactly). The reading is
 ``u + sqrt(diag(C(u))) · ε`` at the true control, rotations wrapped, ε from Box–Muller
 pairs of the step's uniforms (:func:`odometry_uniforms` of them).
 """

@@ -9,7 +9,8 @@ for the model):
 2. *Detection probability*: the j-th landmark in ID order is kept when its uniform
    ``u[j] < p`` (not read when p = 1), so the draws do not depend on the row order.
 3. *Occlusion*: the line of sight from the robot to the landmark, blocked by walls,
-   obstacles and other landmarks' posts (exact geometry, :mod:`.geometry`).
+   obstacles and other landmarks' posts (exact geometry,
+   :mod:`slam_env.kernels.world.static_geometry`).
 4. *max_detections*: the nearest ones are kept (true range, ties by ID), still in ID
    order.
 5. *Noise*: detection j gets the normal pair of uniforms ``2j, 2j + 1`` (Box–Muller),
@@ -54,7 +55,7 @@ class SensorParams(NamedTuple):
 class SensingScratch(NamedTuple):
     """The sensing kernels' workspaces, allocated by the caller (:func:`sensing_scratch`)
     so that the kernels allocate nothing and can borrow their arrays (see
-    :func:`slam_env.kernels.borrowing_kernel`)."""
+    :func:`slam_env.kernels.base.compiling.borrowing_kernel`)."""
 
     rows: np.ndarray  # (N,) int64: landmark rows in view
     found: np.ndarray  # (N, 3): their true range and noise-free measurement

@@ -1,4 +1,4 @@
-"""Segment queries against the static geometry of B worlds (:mod:`.geometry`): the
+"""Segment queries against the static geometry of B worlds (:mod:`.static_geometry`): the
 landmark sensor's line of sight and the proximity scan, compiled.
 
 :func:`line_of_sight` and :func:`ray_fraction` answer what pymunk's
