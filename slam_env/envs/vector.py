@@ -24,8 +24,8 @@ from slam_env.core.raw import RawCore
 from slam_env.ekf import EKFSLAM
 from slam_env.envs.actions import DISCRETE_PRIMITIVES, parse_actions
 from slam_env.envs.options import active_core, raw_core
+from slam_env.envs.pictures import Pictures
 from slam_env.envs.registration import DEFAULT_MAX_EPISODE_STEPS
-from slam_env.render.renderer import Renderer
 
 AUTORESET_MODES = (AutoresetMode.NEXT_STEP, AutoresetMode.SAME_STEP)
 
@@ -135,8 +135,8 @@ class SlamVectorEnv(VectorEnv):
         self._started = False
         self._all = np.ones(b, dtype=bool)
         self._idle = np.zeros((b, 2))  # the commands of sub-envs that only reset
-        self._trails: list[list[tuple[float, float]]] = [[] for _ in range(b)]
-        self._renderers: list[Any] = [None] * b
+        # Each sub-env's paths, step count and renderer: the single env's helper.
+        self._pictures = Pictures(self.core, render_mode, self.metadata["render_fps"])
 
     # ------------------------------------------------------------------ API
     def reset(
@@ -177,15 +177,10 @@ class SlamVectorEnv(VectorEnv):
             return list(seed)
         raise TypeError(f"seed must be an int, a list of {b} ints or None, got {seed!r}")
 
-    def _finish_resets(self, indices: list[int]) -> None:
-        """After the sub-envs of ``indices`` reset: their step counts and pictures."""
-        for b in indices:
-            self._elapsed[b] = 0
-            if self.render_mode is not None:
-                pose = self.core.worlds.poses[b]
-                self._trails[b] = [(float(pose[0]), float(pose[1]))]
-                if self._renderers[b] is not None:
-                    self._renderers[b].set_layout(self.core.worlds.worlds[b].layout)
+    def _finish_resets(self, rows: list[int]) -> None:
+        """After the sub-envs ``rows`` reset: their step counts and pictures."""
+        self._elapsed[rows] = 0
+        self._pictures.restart(rows)
 
     def step(self, actions: Any) -> tuple[Any, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
         if not self._started:
@@ -204,11 +199,8 @@ class SlamVectorEnv(VectorEnv):
         truncated = np.zeros(self.num_envs, dtype=bool)
         if self.max_episode_steps is not None:
             truncated = (self._elapsed >= self.max_episode_steps) & active
+        self._pictures.advance(np.flatnonzero(active).tolist())
         rewards = np.where(active, core.rewards, 0.0)
-        if self.render_mode is not None:
-            for b in np.flatnonzero(active).tolist():
-                pose = core.worlds.poses[b]
-                self._trails[b].append((float(pose[0]), float(pose[1])))
         done = terminated | truncated
         final: dict[str, Any] | None = None
         if next_step:
@@ -240,7 +232,11 @@ class SlamVectorEnv(VectorEnv):
         }
 
     def render(self) -> tuple[np.ndarray, ...] | None:
-        """A frame per sub-env, (H, W, 3) uint8 each."""
+        """A frame per sub-env, (H, W, 3) uint8 each: pixel for pixel the single env's
+        ``render()`` of the same state (the world, the paths, the visible region cut by
+        what occludes it, the step, and over a belief its estimated path and live
+        figures). ``close()`` releases the renderers; a later ``render()`` makes new
+        ones."""
         if self.render_mode is None:
             logger.warn(
                 "render() called without a render_mode; pass render_mode='rgb_array' to "
@@ -249,38 +245,18 @@ class SlamVectorEnv(VectorEnv):
             return None
         if not self._started:
             raise ResetNeeded("call reset() before render()")
-        return tuple(self._render_one(b) for b in range(self.num_envs))
-
-    def _render_one(self, index: int) -> np.ndarray:
-
-        if self._renderers[index] is None:
-            cfg = self.config
-            self._renderers[index] = Renderer(
-                self.core.worlds.worlds[index].layout,
-                robot_radius=cfg.robot.radius,
-                max_range=cfg.sensor.max_range,
-                fov=cfg.sensor.fov,
-                render_mode="rgb_array",
-                render_fps=self.metadata["render_fps"],
-            )
-        frame = self.core.frame(index, self._trails[index], self.core.belief_overlay(index))
-        return self._renderers[index].render(frame)
+        pictures = self._pictures
+        infos = self.core.infos()  # once for the live figures of every sub-env
+        return tuple(
+            pictures.render(b, pictures.belief_overlay(b, infos)) for b in range(self.num_envs)
+        )
 
     def close_extras(self, **kwargs: Any) -> None:
-        if not hasattr(self, "_renderers"):
+        if not hasattr(self, "_pictures"):
             # A constructor that refused its arguments: nothing to close (gymnasium
             # 1.2's VectorEnv.__del__ closes such a half-made env).
             return
-        for renderer in self._renderers:
-            if renderer is not None:
-                renderer.close()
-        self._renderers = [None] * self.num_envs
-
-    # Pickling: renderers (pygame surfaces) stay behind and are rebuilt on demand.
-    def __getstate__(self) -> dict[str, Any]:
-        state = self.__dict__.copy()
-        state["_renderers"] = [None] * self.num_envs
-        return state
+        self._pictures.close()
 
 
 def _raw_core(num_envs: int, **options: Any) -> RawCore:
