@@ -28,6 +28,7 @@ from slam_env.kernels.stream.odometry import odometry_uniforms
 from slam_env.kernels.stream.raw_step import raw_step
 from slam_env.kernels.stream.sensing import SensorParams, scan_uniforms, sensing_scratch
 from slam_env.render.renderer import Frame
+from slam_env.render.visibility import visible_region
 from slam_env.sensing.raw_observation import raw_observation_space
 from slam_env.world.frames import robot_to_world
 from slam_env.world.layouts import Layout
@@ -288,25 +289,32 @@ class RawCore(BatchCore):
             arrays["bumper"] = out.bumper
         return arrays
 
-    def frame(self, index: int, trail: Any, belief: Any = None) -> Any:
-        """The plain-data :class:`slam_env.render.renderer.Frame` of sub-env ``index``, with its
-        past positions ``trail`` ((T, 2), m) and a belief overlay to draw, if any."""
+    def frame(self, index: int, trail: Any, belief: Any = None) -> Frame:
+        """The plain-data :class:`slam_env.render.renderer.Frame` of sub-env ``index``: the
+        robot, its detections, the landmarks seen and the sensor's visible region traced
+        in its world (cut by what occludes it), with its past positions ``trail``
+        ((T, 2), m) and a belief overlay to draw, if any. The env adds the step."""
         k = int(self.det_count[index])
         pose = self.worlds.poses[index]
+        sensor = self.config.sensor
         z = self.det_z[index, :k]
-        if self.config.sensor.measurement_model == "range_bearing":
+        if sensor.measurement_model == "range_bearing":
             local = np.stack([z[:, 0] * np.cos(z[:, 1]), z[:, 0] * np.sin(z[:, 1])], axis=-1)
         else:
             local = z
         ids = self.worlds.landmark_ids[index]
+        at = tuple(pose.tolist())
         return Frame(
-            pose=tuple(pose.tolist()),
+            pose=at,
             trail=np.array(trail, dtype=np.float64).reshape(-1, 2),
             detections_world=robot_to_world(pose, local),
             detected_ids=self.det_ids[index, :k].copy(),
             seen_mask=self.seen[index][ids].copy(),
             collision=bool(self.collided[index]),
             belief=belief,
+            visible_region=visible_region(
+                self.worlds.worlds[index], at, sensor.max_range, sensor.fov
+            ),
         )
 
     def belief_overlay(self, index: int) -> None:

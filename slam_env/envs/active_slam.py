@@ -11,19 +11,15 @@ from __future__ import annotations
 
 from typing import Any
 
-import numpy as np
-
 from slam_env.belief.overlay import BeliefOverlay
 from slam_env.belief.reward import ActiveSLAMRewardWeights
 from slam_env.core.active_options import DEFAULT_SCAN_BEAMS, ActiveSLAMOptions
 from slam_env.ekf import EKFSLAM
 from slam_env.envs.options import active_core, options_signature
+from slam_env.envs.pictures import LIVE_FIGURES
 from slam_env.envs.single import CoreEnv
 
 __all__ = ["DEFAULT_SCAN_BEAMS", "LIVE_FIGURES", "ActiveSLAMEnv"]
-
-# The belief's figures (``info`` keys) shown live beside the rendered map.
-LIVE_FIGURES = ("entropy", "map_rmse", "pose_nees")
 
 
 class ActiveSLAMEnv(CoreEnv):
@@ -105,10 +101,8 @@ class ActiveSLAMEnv(CoreEnv):
         # A batch of one: the native vector env runs the same core for B sub-envs.
         self._setup(core, render_mode)
         self.options = core.options
-        # What render() draws beyond the belief: the estimated path and live figures,
-        # kept only when rendering.
-        self._estimated_trail: list[tuple[float, float]] = []
-        self._figures: dict[str, float] = {}
+        # render() draws the belief with its estimated path and its live figures
+        # (LIVE_FIGURES), which the pictures' helper of CoreEnv keeps.
 
     @property
     def filter(self) -> EKFSLAM:
@@ -124,24 +118,6 @@ class ActiveSLAMEnv(CoreEnv):
         """What the pictures draw of the belief (``true_landmarks`` (N, 2) to draw the
         truth beside it, if wanted)."""
         return self._core.belief_overlay(0, true_landmarks)
-
-    def _remember(self, info: dict[str, Any]) -> None:
-        """Keep the true and estimated positions and the live figures (map_rmse is
-        absent until a landmark is mapped) for the picture."""
-        if self.render_mode is None:
-            return
-        super()._remember(info)
-        if self._steps == 0:
-            self._estimated_trail = []
-        x, y = self.filter.pose[:2].tolist()
-        self._estimated_trail.append((x, y))
-        self._figures = {name: info[name] for name in LIVE_FIGURES if name in info}
-
-    def _overlay(self) -> BeliefOverlay:
-        overlay = self.belief_overlay()
-        overlay.trail = np.array(self._estimated_trail, dtype=np.float64).reshape(-1, 2)
-        overlay.figures = dict(self._figures)
-        return overlay
 
 
 # The signature's keyword options are the table's, with their defaults (help(), IDEs).

@@ -12,8 +12,8 @@ from gymnasium import spaces
 from gymnasium.error import ResetNeeded
 
 from slam_env.envs.actions import DISCRETE_PRIMITIVES, parse_action
-from slam_env.render.renderer import Renderer
-from slam_env.render.visibility import visible_region
+from slam_env.envs.pictures import Pictures
+from slam_env.render.renderer import Frame, Renderer
 from slam_env.world.layouts import Layout, as_floats, as_int
 from slam_env.world.pymunk_world import World
 
@@ -56,9 +56,9 @@ class CoreEnv(gym.Env):
         self._active = np.ones(1, dtype=bool)
         self._command = np.zeros((1, 2))
         self._started = False
-        self._renderer = None
-        self._trail: list[tuple[float, float]] = []
-        self._steps = 0  # since the reset, for the picture
+        # The paths, the step count and the renderer of the pictures: the native vector
+        # env keeps its sub-envs' in the same helper, so that both draw one frame.
+        self._pictures = Pictures(core, render_mode, self.metadata["render_fps"])
 
     # ------------------------------------------------------------------ API
     def reset(
@@ -67,14 +67,10 @@ class CoreEnv(gym.Env):
         check_reset_options(options, type(self).__name__)  # before the seed is applied
         super().reset(seed=seed)
         core = self._core
-        layout = core.reset(0, self.np_random)
+        core.reset(0, self.np_random)
         self._started = True
-        self._trail = []
-        self._steps = 0
+        self._pictures.restart([0])
         obs, info = core.observation(0), core.info(0)
-        self._remember(info)
-        if self._renderer is not None:
-            self._renderer.set_layout(layout)
         if self.render_mode == "human":
             self.render()
         return obs, info
@@ -89,9 +85,8 @@ class CoreEnv(gym.Env):
         command[0, 0] = speed_frac * self._max_speed
         command[0, 1] = turn_frac * self._max_turn_rate
         core.step(command, self._active)
-        self._steps += 1
+        self._pictures.advance([0])
         obs, info = core.observation(0), core.info(0)
-        self._remember(info)
         reward = float(core.rewards[0])
         terminated = bool(core.terminated[0])
         if self.render_mode == "human":
@@ -107,15 +102,18 @@ class CoreEnv(gym.Env):
             return None
         if not self._started:
             raise ResetNeeded("call reset() before render()")
-        return self._get_renderer().render(self.render_frame())
+        return self._pictures.render(0, self._overlay())
 
     def close(self) -> None:
         """Release the renderer (its window, if any). As in Gymnasium's own envs the
         episode is kept: ``step``, ``reset`` and ``render`` (which reopens what it
         needs) still work."""
-        if self._renderer is not None:
-            self._renderer.close()
-            self._renderer = None
+        self._pictures.close()
+
+    @property
+    def _renderer(self) -> Renderer | None:
+        """The renderer, once a frame was drawn (None before, and after ``close``)."""
+        return self._pictures.renderers[0]
 
     # ------------------------------------------------------------------ the world
     @property
@@ -193,8 +191,7 @@ class CoreEnv(gym.Env):
                 f"cannot move the landmarks there: {err} (the start pose is {start})"
             ) from None
         self._core.worlds.move_landmarks(0, new_layout, pose)
-        if self._renderer is not None:
-            self._renderer.set_layout(new_layout)
+        self._pictures.set_layout(0, new_layout)
 
     @property
     def np_random(self) -> np.random.Generator:
@@ -211,40 +208,13 @@ class CoreEnv(gym.Env):
             # The steps draw their noise a block at a time: drop the old generator's.
             self._core.blocks.drop(0)
 
-    def _remember(self, info: dict[str, Any]) -> None:
-        """Keep what the picture draws of the path (only when rendering)."""
-        if self.render_mode is not None:
-            pose = self._core.worlds.poses[0]
-            self._trail.append((float(pose[0]), float(pose[1])))
-
     def _overlay(self) -> Any:
-        """The belief to draw over the world, if any."""
-        return None
+        """The belief to draw over the world, if any: the core's, with its estimated
+        path and live figures."""
+        return self._pictures.belief_overlay(0)
 
-    def render_frame(self):
+    def render_frame(self) -> Frame:
         """The plain-data :class:`slam_env.render.renderer.Frame` of the current state, with
-        the sensor's visible region traced in the world and the step number."""
-        frame = self._core.frame(0, self._trail, self._overlay())
-        sensor = self.config.sensor
-        frame.visible_region = visible_region(self.world, frame.pose, sensor.max_range, sensor.fov)
-        frame.step = self._steps
-        return frame
-
-    def _get_renderer(self):
-        if self._renderer is None:
-            cfg = self.config
-            self._renderer = Renderer(
-                self.layout,
-                robot_radius=cfg.robot.radius,
-                max_range=cfg.sensor.max_range,
-                fov=cfg.sensor.fov,
-                render_mode=self.render_mode,
-                render_fps=self.metadata["render_fps"],
-            )
-        return self._renderer
-
-    # Pickling: the renderer (a pygame window) stays behind; it is rebuilt on demand.
-    def __getstate__(self) -> dict[str, Any]:
-        state = self.__dict__.copy()
-        state["_renderer"] = None
-        return state
+        the sensor's visible region traced in the world and the step number: the frame
+        that :meth:`render` draws (built as the native vector env builds a sub-env's)."""
+        return self._pictures.frame(0, self._overlay())

@@ -9,10 +9,11 @@ generator, seeded as the single env would be.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 import numpy as np
+from gymnasium import error as gym_error
 from gymnasium import logger, spaces
 from gymnasium.error import ResetNeeded
 from gymnasium.utils import seeding
@@ -24,10 +25,8 @@ from slam_env.core.raw import RawCore
 from slam_env.ekf import EKFSLAM
 from slam_env.envs.actions import DISCRETE_PRIMITIVES, parse_actions
 from slam_env.envs.options import active_core, raw_core
+from slam_env.envs.pictures import Pictures
 from slam_env.envs.registration import DEFAULT_MAX_EPISODE_STEPS
-from slam_env.render.renderer import Renderer
-
-AUTORESET_MODES = (AutoresetMode.NEXT_STEP, AutoresetMode.SAME_STEP)
 
 
 def with_masks(
@@ -64,8 +63,46 @@ def _select(info: dict[str, Any], rows: np.ndarray) -> dict[str, Any]:
     return out
 
 
+def _mask_of(options: Any, num_envs: int, name: str) -> np.ndarray | None:
+    """The ``reset_mask`` of reset ``options`` ((B,) bool, a copy), None for a reset of
+    every sub-env; ``TypeError``/``ValueError`` for anything else, as SyncVectorEnv
+    refuses a bad mask (and the single envs any other option)."""
+    if options is None:
+        return None
+    if not isinstance(options, Mapping):
+        raise TypeError(
+            f"{name}.reset options must be a dict or None, got {type(options).__name__}"
+        )
+    others = sorted(map(str, set(options) - {"reset_mask"}))
+    if others:
+        raise ValueError(
+            f"{name}.reset takes only reset_mask in its options (the sub-envs take no "
+            f"reset options), got {others}"
+        )
+    if "reset_mask" not in options:
+        return None
+    mask = options["reset_mask"]
+    if not isinstance(mask, np.ndarray):
+        raise TypeError(
+            f"options['reset_mask'] must be a numpy array of {num_envs} bools, "
+            f"got {type(mask).__name__}"
+        )
+    if mask.shape != (num_envs,):
+        raise ValueError(f"options['reset_mask'] must have shape ({num_envs},), got {mask.shape}")
+    if mask.dtype != np.bool_:
+        raise TypeError(f"options['reset_mask'] must have dtype bool, got {mask.dtype}")
+    if not mask.any():
+        raise ValueError("options['reset_mask'] must hold at least one True (a sub-env to reset)")
+    return mask.copy()
+
+
 class SlamVectorEnv(VectorEnv):
     """B sub-envs of one slam_env ID with one config, stepped by one batched core.
+
+    It offers Gymnasium's vector API as :class:`gymnasium.vector.SyncVectorEnv` does
+    over the same ID, with the same results bit for bit (observations, rewards, flags,
+    infos with their ``_key`` masks): sub-env i is the single env, reset with seed
+    s + i.
 
     Args:
         num_envs: B.
@@ -73,12 +110,17 @@ class SlamVectorEnv(VectorEnv):
             the ID (:class:`slam_env.core.raw.RawCore` for ``Landmarks-v0``).
         max_episode_steps: truncation, as ``gym.make``'s ``TimeLimit`` does for the single
             env (``None``: never).
-        autoreset_mode: ``AutoresetMode.NEXT_STEP`` (default: a sub-env that ended is
-            reset by the next ``step``, which returns its first observation with reward
-            0) or ``SAME_STEP`` (reset within the same ``step``; the last observation and
-            info are in ``info["final_obs"]`` and ``info["final_info"]``).
+        autoreset_mode: an :class:`~gymnasium.vector.AutoresetMode` or its value, also
+            :attr:`autoreset_mode` and ``metadata["autoreset_mode"]``. ``NEXT_STEP``
+            (default): a sub-env that ended is reset by the next ``step``, which returns
+            its first observation with reward 0 and ignores its action. ``SAME_STEP``:
+            reset within the same ``step``; the last observation and info are in
+            ``info["final_obs"]`` and ``info["final_info"]``. ``DISABLED``: never reset
+            by ``step``; reset the ended sub-envs with
+            ``reset(options={"reset_mask": terminated | truncated})`` before the next
+            ``step`` (which refuses with ``ResetNeeded`` otherwise).
         render_mode: ``None`` or ``"rgb_array"`` (``render()`` returns a frame per
-            sub-env).
+            sub-env, the single env's frame of the same state).
         options: every option of the single env (flat or nested), the same for all
             sub-envs.
     """
@@ -105,14 +147,19 @@ class SlamVectorEnv(VectorEnv):
             raise ValueError(
                 f"max_episode_steps must be an int >= 1 or None, got {max_episode_steps!r}"
             )
-        mode = AutoresetMode(autoreset_mode)
-        if mode not in AUTORESET_MODES:
-            raise ValueError(f"autoreset_mode must be one of {AUTORESET_MODES}, got {mode}")
+        try:
+            mode = AutoresetMode(autoreset_mode)
+        except ValueError:
+            raise ValueError(
+                f"autoreset_mode must be one of {[m.value for m in AutoresetMode]} (or an "
+                f"AutoresetMode), got {autoreset_mode!r}"
+            ) from None
         if render_mode not in (None, "rgb_array"):
             raise ValueError(f"render_mode must be None or 'rgb_array', got {render_mode!r}")
         self.num_envs = int(num_envs)
         self.core = core_factory(num_envs=self.num_envs, **options)
         self.config = self.core.config
+        self.autoreset_mode = mode
         self.metadata = {
             "render_modes": ["rgb_array"],
             "render_fps": 10,
@@ -131,12 +178,14 @@ class SlamVectorEnv(VectorEnv):
         self._max_command = np.array([robot.max_speed, robot.max_turn_rate])
         b = self.num_envs
         self._elapsed = np.zeros(b, dtype=np.int64)
+        # The sub-envs that ended in the last step and were not reset since: NEXT_STEP
+        # resets them in the next step, DISABLED refuses to step them.
         self._autoreset = np.zeros(b, dtype=bool)
         self._started = False
         self._all = np.ones(b, dtype=bool)
         self._idle = np.zeros((b, 2))  # the commands of sub-envs that only reset
-        self._trails: list[list[tuple[float, float]]] = [[] for _ in range(b)]
-        self._renderers: list[Any] = [None] * b
+        # Each sub-env's paths, step count and renderer: the single env's helper.
+        self._pictures = Pictures(self.core, render_mode, self.metadata["render_fps"])
 
     # ------------------------------------------------------------------ API
     def reset(
@@ -145,27 +194,44 @@ class SlamVectorEnv(VectorEnv):
         seed: int | Sequence[int | None] | None = None,
         options: dict[str, Any] | None = None,
     ) -> tuple[Any, dict[str, Any]]:
-        """Reset every sub-env. ``seed``: an int s seeds sub-env i with s + i; a list
-        gives each sub-env its own (``None`` entries continue that sub-env's
-        generator, or draw fresh entropy the first time)."""
-        if options:
-            raise ValueError(f"{type(self).__name__}.reset takes no options, got {options!r}")
+        """Reset every sub-env, or with ``options={"reset_mask": mask}`` ((B,) bool
+        numpy array, at least one True) only those of ``mask``, as SyncVectorEnv does:
+        the others keep their observations (returned as they were) and episodes, and
+        the info reports only the reset ones (with ``_key`` masks; zeros elsewhere).
+        ``reset_mask`` is the only option; a partial mask needs a full reset first.
+
+        ``seed``: an int s seeds sub-env i with s + i; a list gives each sub-env its
+        own (``None`` entries continue that sub-env's generator, or draw fresh entropy
+        the first time; with a mask, the entries of sub-envs not reset are not used).
+        Every argument is checked before anything changes: a refused call leaves the
+        env as it was."""
+        name = type(self).__name__
+        mask = _mask_of(options, self.num_envs, name)
+        generators = self._generators(self._seeds(seed))
+        if mask is None:
+            mask = self._all
+        elif not self._started and not mask.all():
+            raise ResetNeeded(
+                f"{name}: reset every sub-env (a reset without reset_mask) before a reset "
+                f"of some, got reset_mask={mask.tolist()}"
+            )
+        # Checked: from here on nothing raises.
+        rows = np.flatnonzero(mask).tolist()
         rngs = self.core.rngs
-        for b, s in enumerate(self._seeds(seed)):
-            if s is not None or rngs[b] is None:
-                rngs[b], _ = seeding.np_random(s)
-        everyone = list(range(self.num_envs))
-        self.core.advance(self._idle, ~self._all, everyone)
-        self._finish_resets(everyone)
-        self._autoreset[:] = False
+        for b in rows:
+            rng = generators[b]
+            if rng is not None or rngs[b] is None:
+                rngs[b] = seeding.np_random()[0] if rng is None else rng
+        self.core.advance(self._idle, ~self._all, rows)
+        self._finish_resets(rows)
+        self._autoreset[rows] = False
         self._started = True
-        return self.core.observations(), with_masks(*self._infos())
-
-    def _infos(self) -> tuple[dict[str, Any], np.ndarray, dict[str, np.ndarray]]:
         info, masks = self.core.infos()
-        return info, self._all, masks
+        if len(rows) < self.num_envs:
+            info = _select(info, mask)
+        return self.core.observations(), with_masks(info, mask.copy(), masks)
 
-    def _seeds(self, seed: int | Sequence[int | None] | None) -> list[int | None]:
+    def _seeds(self, seed: int | Sequence[int | None] | None) -> list[Any]:
         b = self.num_envs
         if seed is None:
             return [None] * b
@@ -174,52 +240,67 @@ class SlamVectorEnv(VectorEnv):
         if isinstance(seed, Sequence) and not isinstance(seed, str):
             if len(seed) != b:
                 raise ValueError(f"seed must list {b} seeds (one per sub-env), got {len(seed)}")
-            return list(seed)
+            return [int(s) if isinstance(s, np.integer) else s for s in seed]
         raise TypeError(f"seed must be an int, a list of {b} ints or None, got {seed!r}")
 
-    def _finish_resets(self, indices: list[int]) -> None:
-        """After the sub-envs of ``indices`` reset: their step counts and pictures."""
-        for b in indices:
-            self._elapsed[b] = 0
-            if self.render_mode is not None:
-                pose = self.core.worlds.poses[b]
-                self._trails[b] = [(float(pose[0]), float(pose[1]))]
-                if self._renderers[b] is not None:
-                    self._renderers[b].set_layout(self.core.worlds.worlds[b].layout)
+    @staticmethod
+    def _generators(seeds: list[Any]) -> list[np.random.Generator | None]:
+        """Each sub-env's new generator (None where its seed is None), made before any
+        is used, so that a bad seed (Gymnasium's ``error.Error``, as the single env's)
+        changes nothing."""
+        made = []
+        for i, s in enumerate(seeds):
+            try:
+                made.append(None if s is None else seeding.np_random(s)[0])
+            except gym_error.Error as err:
+                raise type(err)(f"seed[{i}] (sub-env {i}): {err}") from None
+        return made
+
+    def _finish_resets(self, rows: list[int]) -> None:
+        """After the sub-envs ``rows`` reset: their step counts and pictures."""
+        self._elapsed[rows] = 0
+        self._pictures.restart(rows)
 
     def step(self, actions: Any) -> tuple[Any, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
         if not self._started:
             raise ResetNeeded("call reset() before step()")
+        mode = self.autoreset_mode
+        if mode == AutoresetMode.DISABLED and self._autoreset.any():
+            ended = np.flatnonzero(self._autoreset).tolist()
+            raise ResetNeeded(
+                f"sub-envs {ended} ended and autoreset_mode is DISABLED: reset them with "
+                "reset(options={'reset_mask': terminated | truncated}) before step()"
+            )
         core = self.core
-        resetting = self._autoreset
+        resetting = self._autoreset  # none but in NEXT_STEP mode
         active = ~resetting
         fractions = parse_actions(actions, self.single_action_space, self.num_envs, active)
         commands = fractions * self._max_command  # speed m/s, turn rate rad/s
-        next_step = self.metadata["autoreset_mode"] == AutoresetMode.NEXT_STEP
         # NEXT_STEP: the sub-envs that ended last step start anew in this step's calls.
-        starting = np.flatnonzero(resetting).tolist() if next_step else []
+        starting = np.flatnonzero(resetting).tolist()
         core.advance(commands, active, starting)
         self._elapsed += active
+        stepped = np.flatnonzero(active).tolist()
+        self._pictures.advance(stepped)
         terminated = core.terminated & active
         truncated = np.zeros(self.num_envs, dtype=bool)
         if self.max_episode_steps is not None:
             truncated = (self._elapsed >= self.max_episode_steps) & active
         rewards = np.where(active, core.rewards, 0.0)
-        if self.render_mode is not None:
-            for b in np.flatnonzero(active).tolist():
-                pose = core.worlds.poses[b]
-                self._trails[b].append((float(pose[0]), float(pose[1])))
         done = terminated | truncated
+        self._finish_resets(starting)
         final: dict[str, Any] | None = None
-        if next_step:
-            self._finish_resets(starting)
+        if mode == AutoresetMode.SAME_STEP:
+            self._autoreset = np.zeros(self.num_envs, dtype=bool)
+            if done.any():  # the ended sub-envs start anew now
+                final = self._final(done)
+                ended = np.flatnonzero(done).tolist()
+                core.advance(self._idle, ~self._all, ended)
+                self._finish_resets(ended)
+        else:
             self._autoreset = done
-        elif done.any():  # SAME_STEP: the ended sub-envs start anew now
-            final = self._final(done)
-            ended = np.flatnonzero(done).tolist()
-            core.advance(self._idle, ~self._all, ended)
-            self._finish_resets(ended)
-        infos = with_masks(*self._infos())
+        info, masks = core.infos()
+        infos = with_masks(info, self._all.copy(), masks)
         if final is not None:
             infos.update(final)
         return core.observations(), rewards, terminated, truncated, infos
@@ -240,7 +321,11 @@ class SlamVectorEnv(VectorEnv):
         }
 
     def render(self) -> tuple[np.ndarray, ...] | None:
-        """A frame per sub-env, (H, W, 3) uint8 each."""
+        """A frame per sub-env, (H, W, 3) uint8 each: pixel for pixel the single env's
+        ``render()`` of the same state (the world, the paths, the visible region cut by
+        what occludes it, the step, and over a belief its estimated path and live
+        figures). ``close()`` releases the renderers; a later ``render()`` makes new
+        ones."""
         if self.render_mode is None:
             logger.warn(
                 "render() called without a render_mode; pass render_mode='rgb_array' to "
@@ -249,38 +334,34 @@ class SlamVectorEnv(VectorEnv):
             return None
         if not self._started:
             raise ResetNeeded("call reset() before render()")
-        return tuple(self._render_one(b) for b in range(self.num_envs))
-
-    def _render_one(self, index: int) -> np.ndarray:
-
-        if self._renderers[index] is None:
-            cfg = self.config
-            self._renderers[index] = Renderer(
-                self.core.worlds.worlds[index].layout,
-                robot_radius=cfg.robot.radius,
-                max_range=cfg.sensor.max_range,
-                fov=cfg.sensor.fov,
-                render_mode="rgb_array",
-                render_fps=self.metadata["render_fps"],
-            )
-        frame = self.core.frame(index, self._trails[index], self.core.belief_overlay(index))
-        return self._renderers[index].render(frame)
+        pictures = self._pictures
+        infos = self.core.infos()  # once for the live figures of every sub-env
+        return tuple(
+            pictures.render(b, pictures.belief_overlay(b, infos)) for b in range(self.num_envs)
+        )
 
     def close_extras(self, **kwargs: Any) -> None:
-        if not hasattr(self, "_renderers"):
+        if not hasattr(self, "_pictures"):
             # A constructor that refused its arguments: nothing to close (gymnasium
             # 1.2's VectorEnv.__del__ closes such a half-made env).
             return
-        for renderer in self._renderers:
-            if renderer is not None:
-                renderer.close()
-        self._renderers = [None] * self.num_envs
+        self._pictures.close()
 
-    # Pickling: renderers (pygame surfaces) stay behind and are rebuilt on demand.
-    def __getstate__(self) -> dict[str, Any]:
-        state = self.__dict__.copy()
-        state["_renderers"] = [None] * self.num_envs
-        return state
+    def _index(self, index: Any) -> int:
+        """``index`` as a sub-env's index, negative ones counted from the end as Python
+        sequences count them; ``TypeError`` for a non-integer, ``IndexError`` out of
+        range."""
+        if isinstance(index, bool) or not isinstance(index, (int, np.integer)):
+            raise TypeError(
+                f"a sub-env index must be an integer, got {type(index).__name__} {index!r}"
+            )
+        b = self.num_envs
+        if not -b <= index < b:
+            raise IndexError(
+                f"sub-env index {index} out of range: this vector env has {b} sub-envs, "
+                f"indices -{b} to {b - 1}"
+            )
+        return int(index) % b
 
 
 def _raw_core(num_envs: int, **options: Any) -> RawCore:
@@ -308,5 +389,8 @@ class ActiveSLAMVectorEnv(SlamVectorEnv):
         super().__init__(num_envs, _active_core, **kwargs)
 
     def filter(self, index: int) -> EKFSLAM:
-        """Sub-env ``index``'s EKF-SLAM filter (its state is the vector env's)."""
-        return self.core.filter(index)
+        """Sub-env ``index``'s EKF-SLAM filter (its state is the vector env's; a view,
+        which follows the sub-env). ``index`` counts as Python sequences count:
+        ``filter(-1)`` is the last sub-env's; ``IndexError`` outside ``-B … B - 1``,
+        ``TypeError`` for a non-integer."""
+        return self.core.filter(self._index(index))
