@@ -224,9 +224,9 @@ def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
     parser.add_argument("--skip-accuracy", action="store_true")
     args = parser.parse_args(argv)
     for scale in args.odometry_scales:
-        if not scale > 0.0:
-            parser.error(f"--odometry-scales must be > 0, got {scale}")
-    if not args.relinearize_threshold >= 0.0:
+        if not 0.0 < scale < float("inf"):
+            parser.error(f"--odometry-scales must be > 0 and finite, got {scale}")
+    if not 0.0 <= args.relinearize_threshold < float("inf"):
         parser.error(f"--relinearize-threshold must be >= 0, got {args.relinearize_threshold}")
     if args.long_steps < 200 and not args.skip_growth:
         parser.error("--long-steps must be >= 200 (a first and a last hundred)")

@@ -19,13 +19,15 @@ The factors (recorded as arrays, see :class:`GraphBuilder`):
       ``∂e/∂ξa = [[−1, 0, by], [0, −1, −bx], [0, 0, −1]]`` and
       ``∂e/∂ξb = [[cos Δ, −sin Δ, 0], [sin Δ, cos Δ, 0], [0, 0, 1]]`` with
       ``(bx, by) = R(θa)ᵀ(tb − ta)`` and ``Δ = θb − θa``. A Python callback, called
-      where iSAM2 relinearises.
+      where iSAM2 relinearises; GTSAM's binding hands it a copy of the whole
+      ``Values``, so a call costs more as the graph grows.
     * ``"between"``: GTSAM's ``BetweenFactorPose2`` with the measured ``Pose2(D)`` and
       covariance ``J P Jᵀ``, ``J = blockdiag(R(Dθ)ᵀ, 1)`` (its error lives in the frame
       of ``xa·D``). Its error is ``Logmap(D⁻¹·xa⁻¹·xb)`` (the 4.3 wheels' Pose2 chart
       is the exponential map), which agrees with the reference error to first order
-      only: on a noisy episode its optimum lies ~1e-4 m from the batch smoother's.
-      Compiled, and no Python callback.
+      only: on a noisy 80–120-step episode its optimum lies 1e-4–5e-4 m from the batch
+      smoother's. (Its Jacobians include the Logmap's: exact at any error, as a
+      finite-difference check of the 4.3.0 wheel shows.) Compiled, no Python callback.
 ``MEASURE`` of l from x: z (2,)
     ``"range_bearing"``: ``BearingRangeFactor2D`` with ``Rot2(φ)`` and ``r``; GTSAM
     orders the error (bearing, range), so ``Q`` is permuted to

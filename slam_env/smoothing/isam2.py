@@ -57,25 +57,36 @@ the Gauss–Newton information of every factor linearised at the current estimat
 what iSAM2's relinearisation threshold has not yet relinearised), marginalised onto
 the pose and the map. The filter's covariance is the same marginal for a linear
 model, but it is built from each factor linearised once, at the estimate of its time,
-and never revised; the smoother's is re-linearised as the estimate improves (after a
-loop closure, at the corrected trajectory), which is why it does not grow
-over-confident as the EKF's does. ``pose_cov`` is the pose's marginal alone (cheaper
-than ``cov``).
+and never revised; the smoother's is relinearised as the estimate improves (after a
+loop closure, at the corrected trajectory), so the linearisation errors of earlier
+steps do not stay in it. ``pose_cov`` is the pose's marginal alone (cheaper than
+``cov``).
 
 Costs
 -----
-An update costs what iSAM2 re-eliminates: the cliques the new factors touch, up to the
-root, and the variables whose linear step exceeds ``relinearize_threshold`` (checked
-every ``relinearize_skip`` updates), with their factors relinearised. ``cov`` is
-computed on first read after a change and cached: a joint marginal on the Bayes tree
-over 1 + n keys. The "reference" motion factor is a Python callback (see
-:mod:`slam_env.smoothing.graph`), called where a motion factor is (re)linearised.
+An update costs what iSAM2 re-eliminates (the cliques the new factors touch, up to the
+root, and those of the variables whose linear step exceeds ``relinearize_threshold``,
+checked every ``relinearize_skip`` updates), the back-substitution of the changed part
+("wildfire"), and a few walks over the whole Bayes tree that GTSAM 4.3 makes in every
+update (its ``BayesTree`` destructor visits every clique below the re-eliminated top;
+even a bare odometry chain's update grows from 0.07 ms at 200 poses to 0.33 ms at
+8,000). So the step cost grows with the number of pose variables: on the benchmark's
+2,000-step episode from ~0.5 ms to ~2.6 ms a step. ``keyframes`` cut the pose
+variables (every 5 steps: ~0.4 ms a step, flat, but the detections between keyframes
+are lost); a ``window`` does not pay here (the fixed-lag smoother's marginalisation
+of a pose seen with landmarks costs more than the poses it removes). ``cov`` is
+computed on first read after a change and cached: iSAM2's joint marginal over 1 + n
+keys, ~3 ms at n = 20 whatever the trajectory's length (``pose_cov`` ~0.1 ms). The
+"reference" motion factor is a Python callback (see :mod:`slam_env.smoothing.graph`),
+called where a motion factor is (re)linearised, and GTSAM's binding copies the whole
+``Values`` to pass it: a cost that grows with the graph too.
 
 Atomic calls, copies and pickling
 ---------------------------------
 Inputs are checked before anything changes (``TypeError``/``ValueError`` naming the
 bad value, as the filter's). The factors and values of every iSAM2 update since the
-last reset are recorded (plain tuples of numbers and arrays); should GTSAM fail inside
+last reset are recorded (a tuple of arrays per update, see
+:mod:`slam_env.smoothing.records`); should GTSAM fail inside
 an update (``FloatingPointError``: an indeterminate linear system), the solver is
 rebuilt by replaying the record, so the estimator is as it was. Pickling stores the
 record and the bookkeeping and replays the record on load (GTSAM's objects do not
