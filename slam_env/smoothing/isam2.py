@@ -72,8 +72,9 @@ update (its ``BayesTree`` destructor visits every clique below the re-eliminated
 even a bare odometry chain's update grows from 0.07 ms at 200 poses to 0.33 ms at
 8,000). So the step cost grows with the number of pose variables: on the benchmark's
 2,000-step episode from ~0.5 ms to ~2.6 ms a step. ``keyframes`` cut the pose
-variables (every 5 steps: ~0.4 ms a step, flat, but the detections between keyframes
-are lost); a ``window`` does not pay here (the fixed-lag smoother's marginalisation
+variables (every 5 steps: 0.35–0.55 ms a step, 1.1–1.6× from the first to the last
+hundred, but the detections between keyframes are lost: map RMSE 1.5–1.8× the
+optimum's); a ``window`` does not pay here (the fixed-lag smoother's marginalisation
 of a pose seen with landmarks costs more than the poses it removes). ``cov`` is
 computed on first read after a change and cached: iSAM2's joint marginal over 1 + n
 keys, ~3 ms at n = 20 whatever the trajectory's length (``pose_cov`` ~0.1 ms). The
