@@ -1,0 +1,254 @@
+"""iSAM2 SLAM (slam_env.smoothing.ISAM2SLAM): time per step, its growth over a long
+episode, and map accuracy against the batch least-squares optimum.
+
+    .venv-gtsam/bin/python -m benchmarks.bench_smoothing [--steps 500] [--long-steps 2000]
+        [--runs 3] [--seed 0] [--odometry-scales 1 4] [--motion-factor between]
+        [--relinearize-threshold 0.02] [--relinearize-skip 1] [--keyframes K] [--window N]
+        [--repeats 3] [--skip-timing] [--skip-growth] [--skip-accuracy]
+
+The data is ``slam_env/Landmarks-v0`` on the default world (20 landmarks), driven by
+``bench_consistency``'s ``TourDriver`` (a tour of the landmarks from the true pose and
+back home, round again), recorded once per seed; every estimator gets the same
+readings, the labelled detections with their IDs, noise-matched (the env's own α1..α4
+and Q, the true start with zero covariance).
+
+* Timing: one *step* is ``predict(u)`` and ``update(z, ids)`` (``update`` every step,
+  with or without detections) on a ``--steps`` episode (seed ``--seed``), timed step by
+  step in this process's CPU time (``time.process_time``: on a shared machine the wall
+  clock counts the neighbours too), each step's time the least over ``--repeats``
+  runs; the mean and median per step, the same with the belief read as the env would
+  read it (``mean`` and ``cov`` after each update), and ``EKFSLAM`` on the same data
+  for scale.
+* Growth: a ``--long-steps`` episode with the options given (by default no keyframes,
+  no window), timed the same way; the mean step time over the first and the last
+  hundred steps and their ratio, with the pose variables and landmarks at the end.
+* Accuracy: ``--runs`` seeds at each of ``--odometry-scales`` (a factor on the env's
+  α1..α4: 4 is four times the odometry variance): the final map RMSE against the truth
+  of the incremental estimate (no full update), of the same after ``optimize()`` (the
+  full update), of the EKF, and of ``references.smoother.smooth`` (the batch optimum,
+  started from the incremental estimate), and the ratios to the batch optimum.
+
+Targets (issue #49): ≤ 2 ms a step on average on the 500-step episode; ≤ 3× from the
+first to the last hundred steps of the 2,000-step one; incremental map RMSE within
+1.02× of the batch optimum's.
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+from collections.abc import Sequence
+from typing import Any
+
+from agents.common.arguments import non_negative_int, positive_int  # argparse only
+
+
+def estimator_kwargs(recording: Any, args: argparse.Namespace) -> dict[str, Any]:
+    """ISAM2SLAM's arguments for one recorded episode: the noise-matched models (as
+    ``bench_consistency.filter_kwargs``, less the filter-only gate) and the options."""
+    from benchmarks.bench_consistency import filter_kwargs
+
+    kwargs = filter_kwargs(recording)
+    kwargs.pop("gate")
+    return {
+        **kwargs,
+        "motion_factor": args.motion_factor,
+        "relinearize_threshold": args.relinearize_threshold,
+        "relinearize_skip": args.relinearize_skip,
+        "keyframes": args.keyframes,
+        "window": args.window,
+    }
+
+
+def labelled(recording: Any) -> list[tuple[Any, Any]]:
+    """Each step's detections the env labelled (ID ≥ 0)."""
+    return [(z[ids >= 0], ids[ids >= 0]) for z, ids in recording.detections]
+
+
+def run_timed(belief: Any, recording: Any, read: bool) -> Any:
+    """CPU seconds of each step (predict, update, and ``mean``/``cov`` when ``read``)."""
+    import numpy as np
+
+    controls = recording.episode.controls
+    detections = labelled(recording)
+    seconds = np.empty(len(controls))
+    clock = time.process_time
+    for t, (u, (z, ids)) in enumerate(zip(controls, detections, strict=True)):
+        start = clock()
+        belief.predict(u)
+        belief.update(z, ids)
+        if read:
+            belief.mean  # noqa: B018 - the read is what is timed
+            belief.cov  # noqa: B018
+        seconds[t] = clock() - start
+    return seconds
+
+
+def least(make: Any, recording: Any, read: bool, repeats: int) -> Any:
+    """Each step's least CPU time over ``repeats`` runs of fresh ``make()`` beliefs."""
+    import numpy as np
+
+    return np.min([run_timed(make(), recording, read) for _ in range(repeats)], axis=0)
+
+
+def record(seed: int, steps: int, scale: float) -> Any:
+    import gymnasium as gym
+
+    from benchmarks.bench_consistency import ENV_ID, env_options, record_episode
+
+    with gym.make(ENV_ID, max_episode_steps=steps, **env_options(scale, 0.0)) as env:
+        return record_episode(env, seed, steps)
+
+
+def timing(args: argparse.Namespace) -> None:
+    import numpy as np
+
+    from benchmarks.bench_consistency import filter_kwargs
+    from slam_env.ekf import EKFSLAM
+    from slam_env.smoothing import ISAM2SLAM
+
+    rec = record(args.seed, args.steps, 1.0)
+    T = rec.episode.n_steps
+    print(f"timing: {T} steps, {rec.n_landmarks} landmarks, seed {args.seed}")
+    rows = []
+    for name, make, read in (
+        ("ISAM2SLAM", lambda: ISAM2SLAM(**estimator_kwargs(rec, args)), False),
+        ("ISAM2SLAM + mean/cov read", lambda: ISAM2SLAM(**estimator_kwargs(rec, args)), True),
+        ("EKFSLAM", lambda: EKFSLAM(**filter_kwargs(rec)), False),
+    ):
+        make().update(np.empty((0, 2)), np.empty(0, dtype=np.int64))  # warm any compile
+        seconds = least(make, rec, read, args.repeats)
+        rows.append((name, 1e3 * seconds.mean(), 1e3 * np.median(seconds), 1e3 * seconds.max()))
+    print(f"  {'':28s} {'mean ms':>8s} {'median':>8s} {'max':>8s}")
+    for name, mean, median, worst in rows:
+        print(f"  {name:28s} {mean:8.3f} {median:8.3f} {worst:8.3f}")
+
+
+def growth(args: argparse.Namespace) -> None:
+    from slam_env.smoothing import ISAM2SLAM
+
+    rec = record(args.seed, args.long_steps, 1.0)
+    T = rec.episode.n_steps
+    beliefs = []
+
+    def make() -> ISAM2SLAM:
+        beliefs.append(ISAM2SLAM(**estimator_kwargs(rec, args)))
+        return beliefs[-1]
+
+    seconds = least(make, rec, False, args.repeats)
+    belief = beliefs[-1]
+    first, last = seconds[:100].mean(), seconds[-100:].mean()
+    print(
+        f"growth: {T} steps: first 100 {1e3 * first:.3f} ms/step, last 100 "
+        f"{1e3 * last:.3f} ms/step, ratio {last / first:.2f} ({belief.n_poses} poses, "
+        f"{belief.n_landmarks} landmarks, whole episode {seconds.sum():.1f} s)"
+    )
+
+
+def accuracy(args: argparse.Namespace) -> None:
+    import numpy as np
+
+    from benchmarks.bench_consistency import filter_kwargs
+    from references.smoother import smooth
+    from slam_env.belief.metrics import map_rmse
+    from slam_env.ekf import EKFSLAM
+    from slam_env.smoothing import ISAM2SLAM
+
+    print(f"accuracy: {args.runs} runs × {args.steps} steps, final map RMSE (m)")
+    print(
+        f"  {'scale':>5s} {'seed':>4s} {'iSAM2':>8s} {'+full':>8s} {'EKF':>8s} {'batch':>8s} "
+        f"{'iSAM2/LS':>8s} {'full/LS':>8s} {'EKF/LS':>8s}"
+    )
+    for scale in args.odometry_scales:
+        ratios = []
+        for r in range(args.runs):
+            seed = args.seed + r
+            rec = record(seed, args.steps, scale)
+            belief = ISAM2SLAM(**estimator_kwargs(rec, args))
+            ekf = EKFSLAM(**filter_kwargs(rec))
+            for u, (z, ids) in zip(rec.episode.controls, labelled(rec), strict=True):
+                belief.predict(u)
+                belief.update(z, ids)
+                ekf.predict(u)
+                if len(ids):
+                    ekf.update(z, ids)
+
+            def rmse(ids: Any, means: Any, truth: dict = rec.truth) -> float:
+                return map_rmse(means, np.array([truth[int(i)] for i in ids]).reshape(-1, 2))
+
+            incremental = rmse(belief.state_to_id, belief.landmark_means())
+            ekf_rmse = rmse(ekf.state_to_id, ekf.landmark_means())
+            # The batch optimum, started from the smoother's own trajectory and map.
+            _, poses = belief.trajectory()
+            start = None
+            marks = dict(zip(belief.state_to_id.tolist(), belief.landmark_means(), strict=True))
+            if args.keyframes is None and args.window is None:
+                start = poses
+            best = smooth(rec.episode, start, marks)
+            batch = rmse(best.landmark_ids, best.landmarks)
+            belief.optimize()
+            full = rmse(belief.state_to_id, belief.landmark_means())
+            ratios.append((incremental / batch, full / batch, ekf_rmse / batch))
+            print(
+                f"  {scale:5g} {seed:4d} {incremental:8.4f} {full:8.4f} {ekf_rmse:8.4f} "
+                f"{batch:8.4f} {ratios[-1][0]:8.4f} {ratios[-1][1]:8.4f} {ratios[-1][2]:8.4f}"
+            )
+        mean = np.mean(ratios, axis=0)
+        print(
+            f"  {scale:5g} {'mean':>4s} {'':8s} {'':8s} {'':8s} {'':8s} "
+            f"{mean[0]:8.4f} {mean[1]:8.4f} {mean[2]:8.4f}"
+        )
+
+
+def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--steps", type=positive_int, default=500, help="steps per episode")
+    parser.add_argument(
+        "--long-steps", type=positive_int, default=2000, help="steps of the growth episode"
+    )
+    parser.add_argument("--runs", type=positive_int, default=3, help="seeds per noise scale")
+    parser.add_argument("--seed", type=non_negative_int, default=0, help="the first seed")
+    parser.add_argument(
+        "--odometry-scales", type=float, nargs="+", default=[1.0, 4.0], help="factors on α1..α4"
+    )
+    parser.add_argument("--motion-factor", choices=("reference", "between"), default="between")
+    parser.add_argument("--relinearize-threshold", type=float, default=0.02)
+    parser.add_argument("--relinearize-skip", type=positive_int, default=1)
+    parser.add_argument("--keyframes", type=positive_int, default=None, help="every K steps")
+    parser.add_argument("--window", type=positive_int, default=None, help="keep N poses")
+    parser.add_argument(
+        "--repeats", type=positive_int, default=3, help="timed runs (each step's least)"
+    )
+    parser.add_argument("--skip-timing", action="store_true")
+    parser.add_argument("--skip-growth", action="store_true")
+    parser.add_argument("--skip-accuracy", action="store_true")
+    args = parser.parse_args(argv)
+    for scale in args.odometry_scales:
+        if not 0.0 < scale < float("inf"):
+            parser.error(f"--odometry-scales must be > 0 and finite, got {scale}")
+    if not 0.0 <= args.relinearize_threshold < float("inf"):
+        parser.error(f"--relinearize-threshold must be >= 0, got {args.relinearize_threshold}")
+    if args.long_steps < 200 and not args.skip_growth:
+        parser.error("--long-steps must be >= 200 (a first and a last hundred)")
+    return args
+
+
+def main(argv: Sequence[str] | None = None) -> None:
+    args = parse_args(argv)
+    from slam_env.extras import MissingExtra
+    from slam_env.smoothing import require_gtsam
+
+    try:
+        require_gtsam("benchmarks.bench_smoothing")
+    except MissingExtra as err:
+        raise SystemExit(str(err)) from None
+    if not args.skip_timing:
+        timing(args)
+    if not args.skip_growth:
+        growth(args)
+    if not args.skip_accuracy:
+        accuracy(args)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,43 @@
+"""The smoothing layer without GTSAM: importing it needs only numpy, and building an
+estimator names the missing extra in one line (these run whether GTSAM is installed
+or not)."""
+
+from __future__ import annotations
+
+import importlib.util
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from slam_env.extras import MissingExtra
+from slam_env.smoothing import ISAM2SLAM, require_gtsam
+
+
+def test_importing_the_layer_imports_no_gtsam():
+    # (gymnasium and pymunk: the import contracts' business, as for slam_env.ekf)
+    code = (
+        "import sys, slam_env.smoothing; "
+        "print(sorted(m for m in sys.modules if m.split('.')[0] in "
+        "('gtsam', 'gtsam_unstable')))"
+    )
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip() == "[]"
+
+
+def test_a_missing_gtsam_is_one_line_naming_the_extra(monkeypatch):
+    find_spec = importlib.util.find_spec
+    monkeypatch.setattr(
+        importlib.util,
+        "find_spec",
+        lambda name, *a: None if name == "gtsam" else find_spec(name, *a),
+    )
+    with pytest.raises(MissingExtra) as info:
+        require_gtsam("ISAM2SLAM")
+    assert str(info.value) == (
+        "ISAM2SLAM needs the 'gtsam' extra (gtsam not installed): pip install 'slam_env[gtsam]'"
+    )
+    with pytest.raises(MissingExtra, match="ISAM2SLAM needs the 'gtsam' extra"):
+        ISAM2SLAM(alphas=(0.01,) * 4, measurement_cov=np.eye(2) * 0.01, max_landmarks=3)
