@@ -235,11 +235,10 @@ def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
 
 def main(argv: Sequence[str] | None = None) -> None:
     args = parse_args(argv)
-    from slam_env.extras import MissingExtra
-    from slam_env.smoothing import require_gtsam
+    from slam_env.extras import MissingExtra, require
 
     try:
-        require_gtsam("benchmarks.bench_smoothing")
+        require("gtsam", "benchmarks.bench_smoothing")
     except MissingExtra as err:
         raise SystemExit(str(err)) from None
     if not args.skip_timing:

@@ -18,6 +18,7 @@ EXTRAS: dict[str, tuple[str, ...]] = {
     "agents": ("stable_baselines3", "torch", "tensorboard", "tqdm", "rich"),
     "recurrent": ("sb3_contrib",),
     "rllib": ("ray",),
+    "gtsam": ("gtsam",),  # the smoothing belief, slam_env.smoothing
 }
 
 

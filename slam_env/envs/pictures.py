@@ -83,7 +83,7 @@ class Pictures:
     ) -> BeliefOverlay | None:
         """Sub-env ``index``'s belief as drawn (None over the raw core): the core's
         overlay with the estimated path and the live figures of :data:`LIVE_FIGURES`
-        that its info reports (``infos``: the core's :meth:`infos`, if at hand)."""
+        that its info reports (``infos``: the core's ``infos()``, if at hand)."""
         if not self._belief:
             return None
         overlay = self.core.belief_overlay(index)

@@ -17,14 +17,8 @@ motion factors' increments and frames, :mod:`slam_env.smoothing.graph` for the G
 factors.
 """
 
-from slam_env.smoothing.isam2 import (
-    ISAM2SLAM,
-    MOTION_FACTORS,
-    Keyframes,
-    landmark_key,
-    pose_key,
-    require_gtsam,
-)
+from slam_env.smoothing.isam2 import ISAM2SLAM, MOTION_FACTORS, landmark_key, pose_key
+from slam_env.smoothing.keyframes import Keyframes
 from slam_env.smoothing.odometry import MOTION_FLOOR, PRIOR_FLOOR
 
 __all__ = [
@@ -35,5 +29,4 @@ __all__ = [
     "Keyframes",
     "landmark_key",
     "pose_key",
-    "require_gtsam",
 ]

@@ -1,106 +1,17 @@
 """iSAM2 SLAM: the smoothing belief beside the filter, with the shape of
-:class:`~slam_env.ekf.filter.EKFSLAM`'s API (known correspondences).
+:class:`~slam_env.ekf.filter.EKFSLAM`'s API (known correspondences). The graph (a
+prior on the start, a motion factor between consecutive pose variables, a factor per
+detection), the keyframes and window, what ``cov`` is and how it differs from the
+filter's, what an update costs and why it grows: ``docs/smoothing.md``.
 
-The graph
----------
-Variables: pose ``x_i`` (a ``Pose2``, key ``pose_key(i)``; ``x_0`` the start) and
-landmark ``l_j`` (a ``Point2``, key ``landmark_key(j)`` of its ID j). Factors (made by
-:mod:`slam_env.smoothing.graph`):
-
-* a prior on ``x_0``: the initial pose and covariance, ``PRIOR_FLOOR`` added to the
-  diagonal (a zero covariance, a known start, becomes a 1e-6 m/rad standard deviation:
-  see :data:`slam_env.smoothing.odometry.PRIOR_FLOOR`);
-* a motion factor between consecutive pose variables: the odometry of the controls
-  since the earlier one, composed (:mod:`slam_env.smoothing.odometry`), whitened by the
-  env's own noise model (``R_x = V M Vᵀ`` or ``B Σu Bᵀ`` in the frame of the earlier
-  pose, plus ``MOTION_FLOOR``, as ``references/smoother.py``);
-* a measurement factor per detection used: range-bearing (``BearingRangeFactor2D``) or
-  cartesian (``gtsam_unstable.DeltaFactor``), whitened by Q.
-
-``predict(u)`` only composes the odometry (no GTSAM call). ``update(z, ids)`` decides
-whether the current step gets a pose variable (always, unless ``keyframes`` says
-otherwise), adds its motion factor, one factor per detection and the new variables'
-initial values (the pose predicted from the last estimate, each new landmark from the
-inverse model at that pose), and runs one iSAM2 update. :meth:`ISAM2SLAM.optimize` is
-the full update: Levenberg–Marquardt on the whole graph to convergence, then a fresh
-iSAM2 built at that optimum (it continues from there).
-
-Keyframes and window
---------------------
-``keyframes=None`` gives every update() that follows a predict() a pose variable, as
-the batch smoother has one per step. ``keyframes=k`` or :class:`Keyframes` (every
-``every`` steps, or once the robot moved ``distance`` metres or turned ``angle``
-radians from the last keyframe, whichever comes first) gives one only at those steps,
-and at any step that sees a landmark not yet in the map (so the map holds every
-landmark seen, as the filter's does). Between keyframes the controls compose into one
-motion factor, and the detections are not used (status ``DISCARDED``, counted in
-``n_discarded``). ``window=None`` keeps every pose variable; ``window=N`` keeps the N
-latest and marginalises older ones (GTSAM's ``IncrementalFixedLagSmoother``: iSAM2 with
-those poses ordered first, then ``marginalizeLeaves``). A marginalised pose leaves a
-linear factor on its neighbours, whose linearisation points (landmarks included) are
-fixed from then on: a window bounds the cost but the estimate no longer reaches the
-batch optimum.
-
-The belief
-----------
-``mean = [x, y, θ, m_0x, m_0y, …]`` in the filter's state order (landmarks in the
-order first seen; ``state_to_id``/``id_to_state`` as the filter's), the current pose
-being the latest pose variable's estimate composed with the odometry since. ``cov`` is
-the joint marginal covariance of the current pose and every landmark in the state,
-the past poses integrated out (iSAM2's ``jointMarginalCovariance`` on the Bayes tree),
-with the pose block turned from GTSAM's tangent (x, y, θ in the pose's own frame) to
-the world-frame (x, y, θ) of the filter by the first-order Jacobian
-``T = blockdiag(R(θ), 1)``: ``Σ_world = T Σ_gtsam Tᵀ`` (and ``T Σ_pm`` across); odometry
-composed since the latest pose variable is propagated as the filter's prediction. It is
-the Laplace approximation of the full posterior at the smoothed estimate: the inverse of
-the Gauss–Newton information of every factor linearised at the current estimate (less
-what iSAM2's relinearisation threshold has not yet relinearised), marginalised onto
-the pose and the map. The filter's covariance is the same marginal for a linear
-model, but it is built from each factor linearised once, at the estimate of its time,
-and never revised; the smoother's is relinearised as the estimate improves (after a
-loop closure, at the corrected trajectory), so the linearisation errors of earlier
-steps do not stay in it. ``pose_cov`` is the pose's marginal alone (cheaper than
-``cov``).
-
-Costs
------
-An update costs what iSAM2 re-eliminates (the cliques the new factors touch, up to the
-root, and those of the variables whose linear step exceeds ``relinearize_threshold``,
-checked every ``relinearize_skip`` updates), the back-substitution of the changed part
-("wildfire"), and a few walks over the whole Bayes tree that GTSAM 4.3 makes in every
-update (its ``BayesTree`` destructor visits every clique below the re-eliminated top;
-even a bare odometry chain's update grows from 0.07 ms at 200 poses to 0.33 ms at
-8,000). So the step cost grows with the number of pose variables: on the benchmark's
-2,000-step episode from ~0.5 ms to ~2.6 ms a step. ``keyframes`` cut the pose
-variables (every 5 steps: 0.35–0.55 ms a step, 1.1–1.6× from the first to the last
-hundred, but the detections between keyframes are lost: map RMSE 1.5–1.8× the
-optimum's); a ``window`` does not pay here (the fixed-lag smoother's marginalisation
-of a pose seen with landmarks costs more than the poses it removes). ``cov`` is
-computed on first read after a change and cached: iSAM2's joint marginal over 1 + n
-keys, ~3 ms at n = 20 whatever the trajectory's length (``pose_cov`` ~0.1 ms). The
-"reference" motion factor is a Python callback (see :mod:`slam_env.smoothing.graph`),
-called where a motion factor is (re)linearised, and GTSAM's binding copies the whole
-``Values`` to pass it: a cost that grows with the graph too.
-
-Atomic calls, copies and pickling
----------------------------------
-Inputs are checked before anything changes (``TypeError``/``ValueError`` naming the
-bad value, as the filter's). The factors and values of every iSAM2 update since the
-last reset are recorded (a tuple of arrays per update, see
-:mod:`slam_env.smoothing.records`); should GTSAM fail inside
-an update (``FloatingPointError``: an indeterminate linear system), the solver is
-rebuilt by replaying the record, so the estimator is as it was. Pickling stores the
-record and the bookkeeping and replays the record on load (GTSAM's objects do not
-pickle, and the replay gives the same numbers: the same factors in the same updates).
-``copy()`` copies the ``ISAM2`` itself (its copy constructor; a windowed smoother is
-replayed).
+Inputs are checked before anything changes; every iSAM2 update since the reset is
+recorded (:mod:`slam_env.smoothing.records`), so a failed GTSAM update, a pickle and a
+windowed copy replay it.
 """
 
 from __future__ import annotations
 
-import importlib.util
 import math
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -109,9 +20,10 @@ from slam_env.ekf import checks
 from slam_env.ekf.configuration import checked_config
 from slam_env.ekf.models import MEASUREMENT_MODELS, MOTION_MODELS
 from slam_env.ekf.results import Status, UpdateResult
-from slam_env.extras import MissingExtra
+from slam_env.extras import require
 from slam_env.kernels.base import models as km
 from slam_env.kernels.base.models import wrap_angle
+from slam_env.smoothing.keyframes import Keyframes, keyframes_of
 from slam_env.smoothing.odometry import (
     PRIOR_FLOOR,
     compose,
@@ -127,7 +39,6 @@ __all__ = [
     "Keyframes",
     "landmark_key",
     "pose_key",
-    "require_gtsam",
 ]
 
 MOTION_FACTORS = ("reference", "between")
@@ -148,66 +59,6 @@ def pose_key(i: int) -> int:
 def landmark_key(landmark_id: int) -> int:
     """The GTSAM key of the landmark with this ID (``gtsam.symbol("l", id)``)."""
     return _L | landmark_id
-
-
-def require_gtsam(what: str) -> None:
-    """``MissingExtra`` (one line, as :func:`slam_env.extras.require` words it) unless
-    ``gtsam`` can be imported. Nothing is imported."""
-    if importlib.util.find_spec("gtsam") is None:
-        raise MissingExtra(
-            f"{what} needs the 'gtsam' extra (gtsam not installed): pip install 'slam_env[gtsam]'"
-        )
-
-
-@dataclass(frozen=True)
-class Keyframes:
-    """When a step gets a pose variable: every ``every`` steps, or once the robot has
-    moved ``distance`` m or turned ``angle`` rad (the odometry composed since the last
-    keyframe), whichever comes first; ``None`` disables a criterion, and at least one
-    must be set. A step that sees a new landmark is always a keyframe."""
-
-    every: int | None = None
-    distance: float | None = None
-    angle: float | None = None
-
-    def __post_init__(self) -> None:
-        if self.every is not None:
-            if isinstance(self.every, (bool, np.bool_)) or not isinstance(
-                self.every, (int, np.integer)
-            ):
-                raise TypeError(f"keyframes.every must be an int, got {type(self.every).__name__}")
-            if self.every < 1:
-                raise ValueError(f"keyframes.every must be >= 1, got {self.every}")
-            object.__setattr__(self, "every", int(self.every))
-        for name in ("distance", "angle"):
-            value = getattr(self, name)
-            if value is not None:
-                value = checks.number(value, f"keyframes.{name}")
-                if value <= 0.0:
-                    raise ValueError(f"keyframes.{name} must be > 0, got {value}")
-                object.__setattr__(self, name, value)
-        if self.every is None and self.distance is None and self.angle is None:
-            raise ValueError("keyframes needs at least one of every, distance, angle")
-
-    def due(self, steps: int, increment: tuple[float, float, float]) -> bool:
-        """Whether ``steps`` steps of odometry ``increment`` since the last keyframe
-        make this step one."""
-        dx, dy, dth = increment
-        return (
-            (self.every is not None and steps >= self.every)
-            or (self.distance is not None and math.hypot(dx, dy) >= self.distance)
-            or (self.angle is not None and abs(dth) >= self.angle)
-        )
-
-
-def _keyframes(value: Any) -> Keyframes | None:
-    if value is None or isinstance(value, Keyframes):
-        return value
-    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)):
-        raise TypeError(
-            f"keyframes must be None, an int or a Keyframes, got {type(value).__name__}"
-        )
-    return Keyframes(every=int(value))
 
 
 def _positive_int(value: Any, name: str, allow_none: bool = False) -> int | None:
@@ -324,10 +175,10 @@ class ISAM2SLAM:
         if threshold < 0.0:
             raise ValueError(f"relinearize_threshold must be >= 0, got {threshold}")
         skip = _positive_int(relinearize_skip, "relinearize_skip")
-        frames = _keyframes(keyframes)
+        frames = keyframes_of(keyframes)
         window = _positive_int(window, "window", allow_none=True)
         pose0, cov0 = self._check_prior(initial_pose, initial_pose_cov)
-        require_gtsam("ISAM2SLAM")
+        require("gtsam", "ISAM2SLAM")
 
         self._config = config
         self._options = (motion_factor, threshold, skip, frames, window)
@@ -793,6 +644,6 @@ class ISAM2SLAM:
     def __setstate__(self, state: dict[str, Any]) -> None:
         for name, value in state.items():
             setattr(self, name, value)
-        require_gtsam("ISAM2SLAM")
+        require("gtsam", "ISAM2SLAM")
         self._setup()
         self._replay()

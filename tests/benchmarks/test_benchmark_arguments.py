@@ -25,6 +25,7 @@ BAD_COUNTS = {
     "benchmarks.bench_geometry": ["--queries", "0"],
     "benchmarks.bench_instructions": ["--steps", "0"],
     "benchmarks.bench_rllib": ["--n-envs", "0"],
+    "benchmarks.bench_smoothing": ["--steps", "0"],
     "benchmarks.bench_startup": ["--repeats", "0"],
     "benchmarks.bench_train": ["--steps", "0"],
     "benchmarks.bench_train_metrics": ["--instructions", "-1"],

@@ -11,8 +11,8 @@ import sys
 import numpy as np
 import pytest
 
-from slam_env.extras import MissingExtra
-from slam_env.smoothing import ISAM2SLAM, require_gtsam
+from slam_env.extras import MissingExtra, require
+from slam_env.smoothing import ISAM2SLAM
 
 
 def test_importing_the_layer_imports_no_gtsam():
@@ -35,7 +35,7 @@ def test_a_missing_gtsam_is_one_line_naming_the_extra(monkeypatch):
         lambda name, *a: None if name == "gtsam" else find_spec(name, *a),
     )
     with pytest.raises(MissingExtra) as info:
-        require_gtsam("ISAM2SLAM")
+        require("gtsam", "ISAM2SLAM")
     assert str(info.value) == (
         "ISAM2SLAM needs the 'gtsam' extra (gtsam not installed): pip install 'slam_env[gtsam]'"
     )
