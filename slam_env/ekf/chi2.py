@@ -1,10 +1,14 @@
-"""χ² quantiles for the filter's validation gate and consistency bands (scipy's,
-behind argument checks that name the bad value)."""
+"""χ² quantiles for the filter's validation gate and consistency bands, behind argument
+checks that name the bad value.
+
+The formulas are scipy.stats.chi2's own (``ppf = 2·gammaincinv(dof/2, p)``, ``cdf =
+chdtr(dof, x)``), taken from :mod:`scipy.special`: the same floats, without the second
+that importing :mod:`scipy.stats` adds to every process that makes an env."""
 
 from __future__ import annotations
 
 import numpy as np
-from scipy.stats import chi2
+from scipy.special import chdtr, gammaincinv
 
 __all__ = ["DEFAULT_GATE", "chi2_gate", "chi2_ppf", "joint_gates"]
 
@@ -15,7 +19,7 @@ def chi2_ppf(p: float, dof: int) -> float:
         raise ValueError(f"chi2 probability must be in (0, 1), got {p!r}")
     if isinstance(dof, bool) or not isinstance(dof, (int, np.integer)) or dof < 1:
         raise ValueError(f"chi2 dof must be an int >= 1, got {dof!r}")
-    return float(chi2.ppf(p, dof))
+    return float(2 * gammaincinv(dof / 2, p))
 
 
 def chi2_gate(probability: float = 0.99, dof: int = 2) -> float:
@@ -28,10 +32,10 @@ def chi2_gate(probability: float = 0.99, dof: int = 2) -> float:
 def joint_gates(match_gate: float, max_obs: int) -> np.ndarray:
     """JCBB's joint χ² thresholds for 0..max_obs pairings (2 dof each), at the
     probability of the individual ``match_gate`` (2 dof)."""
-    p = float(chi2.cdf(match_gate, 2))
+    p = float(chdtr(2, match_gate))
     gates = np.full(max_obs + 1, np.inf)
     if 0.0 < p < 1.0:
-        gates[1:] = chi2.ppf(p, 2 * np.arange(1, max_obs + 1))
+        gates[1:] = 2 * gammaincinv(np.arange(1, max_obs + 1), p)  # dof/2 = 1..max_obs
     return gates
 
 
