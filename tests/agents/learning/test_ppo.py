@@ -277,6 +277,8 @@ def test_training_without_tensorboard_writes_nothing_outside_its_folder(
 ):
     import tempfile
 
+    import torch._dynamo  # noqa: F401  torch's own: its import makes torch's cache folder in temp
+
     temp = tmp_path / "temp"
     temp.mkdir()
     monkeypatch.setattr(tempfile, "tempdir", str(temp))  # where SB3 would make a folder
