@@ -2,9 +2,14 @@
 sets of every kind, pinned in ``tests/pinned_streams.json`` so that a change meant to
 keep behaviour (a move, a speed-up) shows at once if it did not.
 
-``python -m tests.pinned_streams --write`` records the current code's hashes (do it only
-when a change of behaviour is meant, and say so in the commit); the test
-``tests/test_pinned_streams.py`` holds the code to them.
+Kernels compiled for another CPU may round a reassociated sum differently, so the file
+holds one set of pins per CPU (``by_cpu``), each taken from the code before the
+redesign (970af96) on a machine of that CPU. ``python -m tests.pinned_streams --write``
+records the current code's hashes for this machine's CPU; with ``--only NAME...`` it
+re-pins those option sets alone and drops them from the other CPUs' pins, which this
+machine cannot recompute (do it only when a change of behaviour is meant, and say so
+in the commit). The test ``tests/test_pinned_streams.py`` holds the code to the pins of
+the CPU it runs on.
 """
 
 from __future__ import annotations
@@ -136,25 +141,41 @@ def machine() -> dict[str, str]:
     }
 
 
-def current() -> dict[str, dict[str, str]]:
+def current(names: list[str] | None = None) -> dict[str, dict[str, str]]:
     return {
         name: {
             "single": single_digest(env_id, options),
             "vector": vector_digest(env_id, options),
         }
         for name, (env_id, options) in OPTION_SETS.items()
+        if names is None or name in names
     }
+
+
+def pins_for(cpu: str) -> dict[str, dict[str, str]] | None:
+    """The pinned hashes for kernels compiled for ``cpu`` (by option set), or None."""
+    entry = json.loads(PIN_FILE.read_text())["by_cpu"].get(cpu)
+    return None if entry is None else entry["streams"]
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--write", action="store_true", help="record the current hashes")
+    parser.add_argument("--only", nargs="+", choices=sorted(OPTION_SETS), help="these sets")
     args = parser.parse_args()
-    pins = {"machine": machine(), "streams": current()}
-    text = json.dumps(pins, indent=2, sort_keys=True) + "\n"
+    here = machine()
+    streams = current(args.only)
+    print(json.dumps({"machine": here, "streams": streams}, indent=2, sort_keys=True))
     if args.write:
-        PIN_FILE.write_text(text)
-    print(text)
+        pins = json.loads(PIN_FILE.read_text()) if PIN_FILE.exists() else {"by_cpu": {}}
+        own = pins["by_cpu"].setdefault(here["cpu"], {"machine": here, "streams": {}})
+        own["machine"] = here
+        own["streams"].update(streams)
+        for cpu, entry in pins["by_cpu"].items():
+            if cpu != here["cpu"]:
+                for name in streams:
+                    entry["streams"].pop(name, None)
+        PIN_FILE.write_text(json.dumps(pins, indent=2, sort_keys=True) + "\n")
 
 
 if __name__ == "__main__":
