@@ -2,8 +2,8 @@
 checks that name the bad value.
 
 The formulas are scipy.stats.chi2's own (``ppf = 2·gammaincinv(dof/2, p)``, ``cdf =
-chdtr(dof, x)``), taken from :mod:`scipy.special`: the same floats, without the second
-that importing :mod:`scipy.stats` adds to every process that makes an env."""
+chdtr(dof, x)``), taken from ``scipy.special``: the same floats, without the second
+that importing ``scipy.stats`` adds to every process that makes an env."""
 
 from __future__ import annotations
 
