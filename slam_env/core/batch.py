@@ -38,6 +38,10 @@ class BatchCore:
         """One step of the active sub-envs (see :meth:`advance`)."""
         self.advance(commands, active, ())
 
+    def close(self) -> None:
+        """Nothing to release (a :class:`~slam_env.core.chunks.ChunkedCore` joins its
+        threads)."""
+
     def true_pose(self, index: int) -> np.ndarray:
         """(3,) sub-env ``index``'s true robot pose (x, y m, θ rad): a view of its row."""
         return self.worlds.poses[index]

@@ -1,5 +1,5 @@
 """B sub-envs as T batched cores over contiguous slices of them, offering one core's
-interface: what the native vector env steps when it runs on T threads.
+interface, stepped concurrently: what the native vector env steps on T threads.
 
 Each chunk is a core of its own (its own arrays, worlds, pymunk spaces, filters and
 the generators of its sub-envs), so that chunks share nothing that a step writes: sub-env
@@ -7,12 +7,18 @@ b of chunk k is row ``b - start_k`` of that core, and its stream is the single e
 whatever T is. :meth:`ChunkedCore.advance` steps the chunks and gathers what the
 vector env reads at every step (rewards, terminated) into preallocated (B,) arrays;
 observations and infos are stacked from the chunks when they are asked for.
+
+The chunks step concurrently: chunk 0 in the calling thread, the others in a persistent
+pool of T - 1 threads, while the compiled kernels run without the GIL (every kernel
+is compiled ``nogil``); the Python between the kernel calls (pymunk's settling, the
+resets' new worlds, the calls' glue) still takes turns on the GIL.
 """
 
 from __future__ import annotations
 
 import os
 from collections.abc import Iterator, Sequence
+from concurrent.futures import Future, ThreadPoolExecutor
 from typing import Any
 
 import numpy as np
@@ -115,6 +121,21 @@ class ChunkedCore:
         self.rewards = np.zeros(b)
         self.terminated = np.zeros(b, dtype=bool)
         self.rngs = _Rows(self, "rngs")
+        self._pool: ThreadPoolExecutor | None = None  # made at the first step
+
+    # The pool's threads are not pickled: a copy makes its own at its first step.
+    def __getstate__(self) -> dict[str, Any]:
+        return {k: v for k, v in self.__dict__.items() if k != "_pool"}
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        self.__dict__.update(state)
+        self._pool = None
+
+    def close(self) -> None:
+        """Join the pool's threads (idempotent; a later step makes new ones)."""
+        pool, self._pool = self._pool, None
+        if pool is not None:
+            pool.shutdown(wait=True)
 
     def locate(self, index: int) -> tuple[Any, int]:
         """The core of sub-env ``index`` and its row there."""
@@ -163,8 +184,32 @@ class ChunkedCore:
         return layouts
 
     def _run(self, calls: list[tuple[Any, ...]]) -> list[list[Layout]]:
-        """Every chunk's call, one after the other."""
-        return [self._advance_chunk(*call) for call in calls]
+        """Every chunk's call, concurrently: the first in this thread, the others in
+        the pool. Returns when all are done; if any raised, the pool's threads are
+        joined and the first chunk's exception (in chunk order) is raised."""
+        if self._pool is None:
+            self._pool = ThreadPoolExecutor(
+                max_workers=len(calls) - 1, thread_name_prefix="slam_env-chunk"
+            )
+        futures: list[Future] = [self._pool.submit(self._advance_chunk, *c) for c in calls[1:]]
+        results: list[Any] = []
+        failure: BaseException | None = None
+        try:
+            results.append(self._advance_chunk(*calls[0]))
+        except BaseException as exc:  # re-raised once the other chunks are done
+            failure = exc
+        try:
+            for future in futures:  # every chunk done before anything returns or raises
+                exc = future.exception()
+                failure = failure or exc
+                results.append(None if exc else future.result())
+        except BaseException:  # interrupted while waiting: the workers finish first
+            self.close()
+            raise
+        if failure is not None:
+            self.close()
+            raise failure
+        return results
 
     # ------------------------------------------------------------------ reading
     def observations(self) -> Any:

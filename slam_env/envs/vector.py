@@ -129,8 +129,12 @@ class SlamVectorEnv(VectorEnv):
             (``len(os.sched_getaffinity(0))``), at most B. T = 1 steps all B sub-envs
             with one core in the calling thread; T > 1 splits them into T contiguous
             chunks (sizes as even as can be), each a core of its own
-            (:class:`slam_env.core.chunks.ChunkedCore`). The streams are the same bit
-            for bit whatever T is.
+            (:class:`slam_env.core.chunks.ChunkedCore`): chunk 0 in the calling thread,
+            the others on a pool of T - 1 threads kept between steps, joined by
+            ``close()``. The streams are the same bit for bit whatever T is. A call in
+            which a chunk raised raises that exception once every chunk is done, and
+            the env then refuses to step (``ResetNeeded``) until a reset of every
+            sub-env.
         options: every option of the single env (flat or nested), the same for all
             sub-envs.
     """
@@ -195,6 +199,7 @@ class SlamVectorEnv(VectorEnv):
         # resets them in the next step, DISABLED refuses to step them.
         self._autoreset = np.zeros(b, dtype=bool)
         self._started = False
+        self._failed = False  # a step or reset raised part-way: a full reset is needed
         self._all = np.ones(b, dtype=bool)
         self._idle = np.zeros((b, 2))  # the commands of sub-envs that only reset
         # Each sub-env's paths, step count and renderer: the single env's helper.
@@ -235,10 +240,11 @@ class SlamVectorEnv(VectorEnv):
             rng = generators[b]
             if rng is not None or rngs[b] is None:
                 rngs[b] = seeding.np_random()[0] if rng is None else rng
-        self.core.advance(self._idle, ~self._all, rows)
+        self._advance(self._idle, ~self._all, rows)
         self._finish_resets(rows)
         self._autoreset[rows] = False
         self._started = True
+        self._failed = False
         info, masks = self.core.infos()
         if len(rows) < self.num_envs:
             info = _select(info, mask)
@@ -269,6 +275,16 @@ class SlamVectorEnv(VectorEnv):
                 raise type(err)(f"seed[{i}] (sub-env {i}): {err}") from None
         return made
 
+    def _advance(self, commands: np.ndarray, stepping: np.ndarray, resetting: list[int]) -> None:
+        """The core's :meth:`~slam_env.core.raw.RawCore.advance`; if it raises (in any
+        chunk's thread), its sub-envs are left part-way through the call, so the env
+        refuses to step (``ResetNeeded``) until a reset of every sub-env."""
+        try:
+            self.core.advance(commands, stepping, resetting)
+        except BaseException:
+            self._started, self._failed = False, True
+            raise
+
     def _finish_resets(self, rows: list[int]) -> None:
         """After the sub-envs ``rows`` reset: their step counts and pictures."""
         self._elapsed[rows] = 0
@@ -276,6 +292,11 @@ class SlamVectorEnv(VectorEnv):
 
     def step(self, actions: Any) -> tuple[Any, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
         if not self._started:
+            if self._failed:
+                raise ResetNeeded(
+                    "the last step() or reset() raised part-way through: reset() every "
+                    "sub-env before step()"
+                )
             raise ResetNeeded("call reset() before step()")
         mode = self.autoreset_mode
         if mode == AutoresetMode.DISABLED and self._autoreset.any():
@@ -291,7 +312,7 @@ class SlamVectorEnv(VectorEnv):
         commands = fractions * self._max_command  # speed m/s, turn rate rad/s
         # NEXT_STEP: the sub-envs that ended last step start anew in this step's calls.
         starting = np.flatnonzero(resetting).tolist()
-        core.advance(commands, active, starting)
+        self._advance(commands, active, starting)
         self._elapsed += active
         stepped = np.flatnonzero(active).tolist()
         self._pictures.advance(stepped)
@@ -308,7 +329,7 @@ class SlamVectorEnv(VectorEnv):
             if done.any():  # the ended sub-envs start anew now
                 final = self._final(done)
                 ended = np.flatnonzero(done).tolist()
-                core.advance(self._idle, ~self._all, ended)
+                self._advance(self._idle, ~self._all, ended)
                 self._finish_resets(ended)
         else:
             self._autoreset = done
@@ -358,6 +379,7 @@ class SlamVectorEnv(VectorEnv):
             # A constructor that refused its arguments: nothing to close (gymnasium
             # 1.2's VectorEnv.__del__ closes such a half-made env).
             return
+        self.core.close()
         self._pictures.close()
 
     def _index(self, index: Any) -> int:
