@@ -2,7 +2,7 @@
 
     .venv/bin/python -m benchmarks.bench_env [--steps 20000] [--repeats 3]
                      [--wrapped] [--vector 8 64 256] [--vector-ids Landmarks ActiveSLAM]
-                     [--vector-steps 600]
+                     [--vector-steps 600] [--threads 1 2]
 
 Every single env is made with ``gym.make`` (so each carries the same standard
 wrappers), every native vector env with ``gym.make_vec(..., "vector_entry_point")``
@@ -11,14 +11,19 @@ with pre-sampled random actions (an episode that ends is reset: by the loop for 
 single env, by the vector env itself otherwise). A vector env's rate counts env-steps
 (sub-envs × vector steps) per second. The repeats take turns: each round times every
 env once, so a slow spell of a shared machine hits all of them, and the best of
-``--repeats`` rounds is kept for each. The figures that matter are the ratios measured
-in the same run, against CartPole-v1's single env.
+``--repeats`` rounds is kept for each (and the median reported beside it, with the
+CPU time of the process, all its threads, per env-step of the median round). The figures
+that matter are the ratios measured in the same run, against CartPole-v1's single env;
+"× ref" compares a row with the one it is measured against: a wrapped env with the raw
+env it wraps, a native vector env on T > 1 threads (``num_threads``) with the same
+one on a single thread.
 """
 
 from __future__ import annotations
 
 import argparse
 import math
+import statistics
 import time
 from typing import Any
 
@@ -41,7 +46,8 @@ class Timed:
         self.env = self._make(env_id, **kwargs)
         self.env.action_space.seed(0)
         self.actions = [self.env.action_space.sample() for _ in range(steps)]
-        self.best = float("inf")
+        self.times: list[float] = []
+        self.cpu: list[float] = []  # the process's CPU seconds a round, every thread's
         self.rounds = 0
 
     def _make(self, env_id: str, **kwargs: Any) -> Any:
@@ -58,13 +64,25 @@ class Timed:
     def run_round(self) -> None:
         self.env.reset(seed=self.rounds)
         self.rounds += 1
-        start = time.perf_counter()
+        start, cpu = time.perf_counter(), time.process_time()
         self._step_all()
-        self.best = min(self.best, time.perf_counter() - start)
+        self.times.append(time.perf_counter() - start)
+        self.cpu.append(time.process_time() - cpu)
 
     @property
     def rate(self) -> float:
-        return len(self.actions) * self.num_envs / self.best
+        """Env-steps per second of the best round."""
+        return len(self.actions) * self.num_envs / min(self.times)
+
+    @property
+    def median_rate(self) -> float:
+        """Env-steps per second of the median round."""
+        return len(self.actions) * self.num_envs / statistics.median(self.times)
+
+    @property
+    def cpu_per_step(self) -> float:
+        """CPU µs an env-step (every thread of the process), of the median round."""
+        return 1e6 * statistics.median(self.cpu) / (len(self.actions) * self.num_envs)
 
 
 class TimedVector(Timed):
@@ -113,6 +131,13 @@ def main(argv: list[str] | None = None) -> None:
         help="vector steps a round (default 600: past the 500-step episodes, so the "
         "resets are paid as in the single-env rows)",
     )
+    parser.add_argument(
+        "--threads",
+        type=positive_int,
+        nargs="+",
+        default=[1, 2],
+        help="the native vector envs' num_threads, a row each (at most B; default 1 2)",
+    )
     args = parser.parse_args(argv)
 
     # (label, setting, timed env, index of the row it is compared with or None)
@@ -149,19 +174,30 @@ def main(argv: list[str] | None = None) -> None:
         cartpole = TimedVector("CartPole-v1", args.vector_steps, b)
         rows.append(("CartPole-v1", f"vector, B = {b}", cartpole, None))
         for name in args.vector_ids:
-            timed = TimedVector(VECTOR_IDS[name], args.vector_steps, b)
-            rows.append((VECTOR_IDS[name], f"native vector, B = {b}", timed, None))
+            single_thread = None
+            for t in sorted({min(t, b) for t in args.threads}):
+                timed = TimedVector(VECTOR_IDS[name], args.vector_steps, b, num_threads=t)
+                label = f"native vector, B = {b}, T = {t}"
+                rows.append((VECTOR_IDS[name], label, timed, single_thread))
+                if t == 1:
+                    single_thread = len(rows) - 1
 
     for _ in range(args.repeats):
         for _, _, timed, _ in rows:
             timed.run_round()
 
     cartpole_rate = rows[0][2].rate
-    print("| env | setting | steps/s | × CartPole-v1 | × raw |\n|---|---|---:|---:|---:|")
-    for name, setting, timed, raw_row in rows:
-        rate = timed.rate
-        vs_raw = "" if raw_row is None else f"{rate / rows[raw_row][2].rate:.2f}"
-        print(f"| {name} | {setting} | {rate:,.0f} | {rate / cartpole_rate:.3f} | {vs_raw} |")
+    print(
+        "| env | setting | steps/s | median steps/s | CPU µs/step | × CartPole-v1 | × ref |\n"
+        "|---|---|---:|---:|---:|---:|---:|"
+    )
+    for name, setting, timed, ref_row in rows:
+        rate, median = timed.rate, timed.median_rate
+        vs_ref = "" if ref_row is None else f"{rate / rows[ref_row][2].rate:.2f}"
+        print(
+            f"| {name} | {setting} | {rate:,.0f} | {median:,.0f} | {timed.cpu_per_step:.2f} | "
+            f"{rate / cartpole_rate:.3f} | {vs_ref} |"
+        )
 
 
 if __name__ == "__main__":

@@ -96,7 +96,7 @@ def _run_batch(
                     # What the episode ended with, before the next step resets the sub-env.
                     running[k] = False
                     ends[k] = {
-                        "layout": core.worlds.worlds[k].layout,
+                        "layout": core.layout(k),
                         "belief": core.belief_overlay(k),
                     }
         n_landmarks = int(core.n_landmarks)

@@ -69,6 +69,8 @@ class ActiveCore(BatchCore):
     out, :meth:`observations`/:meth:`infos` all.
     """
 
+    has_belief = True
+
     def __init__(self, config: EnvConfig, num_envs: int, options: ActiveSLAMOptions) -> None:
         self.config = config
         self.num_envs = b = num_envs

@@ -8,6 +8,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from slam_env.world.layouts import Layout
+from slam_env.world.world_batch import WorldBatch
 
 __all__ = ["BatchCore"]
 
@@ -16,7 +17,10 @@ class BatchCore:
     """What both batched cores offer on top of their ``advance``: one sub-env's reset,
     and a step of some sub-envs."""
 
+    #: Whether the sub-envs have a belief (a filter each) beside the raw stream.
+    has_belief = False
     rngs: list[np.random.Generator | None]
+    worlds: WorldBatch
     _idle: np.ndarray  # (B, 2) zeros: the commands of sub-envs that only reset
     _none: np.ndarray  # (B,) False: no sub-env steps
 
@@ -33,3 +37,15 @@ class BatchCore:
     def step(self, commands: np.ndarray, active: np.ndarray) -> None:
         """One step of the active sub-envs (see :meth:`advance`)."""
         self.advance(commands, active, ())
+
+    def close(self) -> None:
+        """Nothing to release (a :class:`~slam_env.core.chunks.ChunkedCore` joins its
+        threads)."""
+
+    def true_pose(self, index: int) -> np.ndarray:
+        """(3,) sub-env ``index``'s true robot pose (x, y m, θ rad): a view of its row."""
+        return self.worlds.poses[index]
+
+    def layout(self, index: int) -> Layout:
+        """Sub-env ``index``'s world as it is now (its landmarks may have moved)."""
+        return self.worlds.worlds[index].layout

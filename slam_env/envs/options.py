@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import dataclasses
 import inspect
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 from slam_env.budget import check_budget, world_size
@@ -20,8 +20,10 @@ __all__ = [
     "ENV_ARGUMENTS",
     "active_config",
     "active_core",
+    "active_cores",
     "options_signature",
     "raw_core",
+    "raw_cores",
 ]
 
 # The envs' own arguments besides the config options (for the list of valid names).
@@ -32,22 +34,35 @@ ACTIVE_ARGUMENTS = ENV_ARGUMENTS + ActiveSLAMOptions.argument_names()
 def raw_core(num_envs: int, options: Mapping[str, Any]) -> RawCore:
     """The raw core of ``num_envs`` sub-envs of ``slam_env/Landmarks-v0`` with
     ``options`` (the config's, flat or nested, or a whole ``config``), checked first."""
+    return raw_cores([num_envs], options)[0]
+
+
+def raw_cores(sizes: Sequence[int], options: Mapping[str, Any]) -> list[RawCore]:
+    """A raw core of each size of ``sizes`` (the chunks of one vector env), all with
+    ``options``, checked first for all of their sub-envs together."""
     check_option_names(options, ENV_ARGUMENTS)
     options = dict(options)
     config = make_config(options.pop("config", None), **options)
     # Everything that scales work or memory, for all the sub-envs, before it is built.
-    check_budget(config, world_size(config), num_envs=num_envs)
-    return RawCore(config, num_envs)
+    check_budget(config, world_size(config), num_envs=sum(sizes))
+    return [RawCore(config, n) for n in sizes]
 
 
 def active_core(num_envs: int, options: Mapping[str, Any]) -> ActiveCore:
     """The active-SLAM core of ``num_envs`` sub-envs of ``slam_env/ActiveSLAM-v0`` with
     ``options``: its own (:class:`ActiveSLAMOptions`) and the world's, checked first."""
+    return active_cores([num_envs], options)[0]
+
+
+def active_cores(sizes: Sequence[int], options: Mapping[str, Any]) -> list[ActiveCore]:
+    """An active-SLAM core of each size of ``sizes`` (the chunks of one vector env), all
+    with ``options``, checked first for all of their sub-envs together."""
     env_options = dict(options)
     own = {k: env_options.pop(k) for k in ActiveSLAMOptions.argument_names() if k in options}
     active = ActiveSLAMOptions(**own)
     check_option_names(env_options, ACTIVE_ARGUMENTS)
-    return ActiveCore(active_config(active, env_options, num_envs), num_envs, active)
+    config = active_config(active, env_options, sum(sizes))
+    return [ActiveCore(config, n, active) for n in sizes]
 
 
 def options_signature(init: Any, table: type) -> inspect.Signature:

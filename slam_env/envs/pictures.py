@@ -11,7 +11,6 @@ from typing import Any
 import numpy as np
 
 from slam_env.belief.overlay import BeliefOverlay
-from slam_env.core.active import ActiveCore
 from slam_env.render.renderer import Frame, Renderer
 from slam_env.world.layouts import Layout
 
@@ -45,7 +44,7 @@ class Pictures:
         self.estimated: list[list[tuple[float, float]]] = [[] for _ in range(b)]
         self.steps = np.zeros(b, dtype=np.int64)
         self.renderers: list[Renderer | None] = [None] * b
-        self._belief = isinstance(core, ActiveCore)
+        self._belief = core.has_belief
 
     # ------------------------------------------------------------------ the paths
     def restart(self, rows: Sequence[int]) -> None:
@@ -59,7 +58,7 @@ class Pictures:
             self.trails[b] = []
             self.estimated[b] = []
             self._remember(b)
-            self.set_layout(b, self.core.worlds.worlds[b].layout)
+            self.set_layout(b, self.core.layout(b))
 
     def advance(self, rows: Sequence[int]) -> None:
         """The sub-envs ``rows`` took a step (after the core's): their paths reach
@@ -71,7 +70,7 @@ class Pictures:
 
     def _remember(self, index: int) -> None:
         """Sub-env ``index``'s true (and estimated) position, for its paths."""
-        pose = self.core.worlds.poses[index]
+        pose = self.core.true_pose(index)
         self.trails[index].append((float(pose[0]), float(pose[1])))
         if self._belief:
             x, y = self.core.filter(index).pose[:2].tolist()
@@ -114,7 +113,7 @@ class Pictures:
         if renderer is None:
             cfg = self.core.config
             renderer = self.renderers[index] = Renderer(
-                self.core.worlds.worlds[index].layout,
+                self.core.layout(index),
                 robot_radius=cfg.robot.radius,
                 max_range=cfg.sensor.max_range,
                 fov=cfg.sensor.fov,

@@ -4,7 +4,8 @@
 (and the same for ``slam_env/ActiveSLAM-v0``) returns a :class:`SlamVectorEnv` whose
 sub-env i, reset with seed s, replays the single env reset with seed s + i exactly:
 the single envs are the same core with B = 1, and every sub-env draws from its own
-generator, seeded as the single env would be.
+generator, seeded as the single env would be. With ``num_threads=T`` the B sub-envs are
+T chunks, each a core of its own, stepped concurrently (see :class:`SlamVectorEnv`).
 """
 
 from __future__ import annotations
@@ -21,10 +22,11 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
 from slam_env.core.active import ActiveCore
+from slam_env.core.chunks import ChunkedCore, chunk_sizes, thread_count
 from slam_env.core.raw import RawCore
 from slam_env.ekf import EKFSLAM
 from slam_env.envs.actions import DISCRETE_PRIMITIVES, parse_actions
-from slam_env.envs.options import active_core, raw_core
+from slam_env.envs.options import active_cores, raw_cores
 from slam_env.envs.pictures import Pictures
 from slam_env.envs.registration import DEFAULT_MAX_EPISODE_STEPS
 
@@ -97,7 +99,7 @@ def _mask_of(options: Any, num_envs: int, name: str) -> np.ndarray | None:
 
 
 class SlamVectorEnv(VectorEnv):
-    """B sub-envs of one slam_env ID with one config, stepped by one batched core.
+    """B sub-envs of one slam_env ID with one config, stepped by batched cores.
 
     It offers Gymnasium's vector API as :class:`gymnasium.vector.SyncVectorEnv` does
     over the same ID, with the same results bit for bit (observations, rewards, flags,
@@ -106,8 +108,9 @@ class SlamVectorEnv(VectorEnv):
 
     Args:
         num_envs: B.
-        core_factory: ``(config, num_envs, **env_options) -> core``, the batched core of
-            the ID (:class:`slam_env.core.raw.RawCore` for ``Landmarks-v0``).
+        cores_factory: ``(sizes, **options) -> [core, ...]``, a batched core of the ID
+            for each size (:class:`slam_env.core.raw.RawCore` for ``Landmarks-v0``),
+            the options checked for all of them together.
         max_episode_steps: truncation, as ``gym.make``'s ``TimeLimit`` does for the single
             env (``None``: never).
         autoreset_mode: an :class:`~gymnasium.vector.AutoresetMode` or its value, also
@@ -121,6 +124,17 @@ class SlamVectorEnv(VectorEnv):
             ``step`` (which refuses with ``ResetNeeded`` otherwise).
         render_mode: ``None`` or ``"rgb_array"`` (``render()`` returns a frame per
             sub-env, the single env's frame of the same state).
+        num_threads: T, how many chunks of the sub-envs are stepped concurrently: an
+            int from 1 to B, or ``None`` (default) for the cores this process may run on
+            (``len(os.sched_getaffinity(0))``), at most B. T = 1 steps all B sub-envs
+            with one core in the calling thread; T > 1 splits them into T contiguous
+            chunks (sizes as even as can be), each a core of its own
+            (:class:`slam_env.core.chunks.ChunkedCore`): chunk 0 in the calling thread,
+            the others on a pool of T - 1 threads kept between steps, joined by
+            ``close()``. The streams are the same bit for bit whatever T is. A call in
+            which a chunk raised raises that exception once every chunk is done, and
+            the env then refuses to step (``ResetNeeded``) until a reset of every
+            sub-env.
         options: every option of the single env (flat or nested), the same for all
             sub-envs.
     """
@@ -128,11 +142,12 @@ class SlamVectorEnv(VectorEnv):
     def __init__(
         self,
         num_envs: int,
-        core_factory: Callable[..., Any],
+        cores_factory: Callable[..., list[Any]],
         *,
         max_episode_steps: int | None = DEFAULT_MAX_EPISODE_STEPS,
         autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP,
         render_mode: str | None = None,
+        num_threads: int | None = None,
         **options: Any,
     ) -> None:
         if isinstance(num_envs, bool) or not isinstance(num_envs, (int, np.integer)):
@@ -157,7 +172,9 @@ class SlamVectorEnv(VectorEnv):
         if render_mode not in (None, "rgb_array"):
             raise ValueError(f"render_mode must be None or 'rgb_array', got {render_mode!r}")
         self.num_envs = int(num_envs)
-        self.core = core_factory(num_envs=self.num_envs, **options)
+        self.num_threads = thread_count(num_threads, self.num_envs)
+        cores = cores_factory(chunk_sizes(self.num_envs, self.num_threads), **options)
+        self.core = cores[0] if len(cores) == 1 else ChunkedCore(cores)
         self.config = self.core.config
         self.autoreset_mode = mode
         self.metadata = {
@@ -182,6 +199,7 @@ class SlamVectorEnv(VectorEnv):
         # resets them in the next step, DISABLED refuses to step them.
         self._autoreset = np.zeros(b, dtype=bool)
         self._started = False
+        self._failed = False  # a step or reset raised part-way: a full reset is needed
         self._all = np.ones(b, dtype=bool)
         self._idle = np.zeros((b, 2))  # the commands of sub-envs that only reset
         # Each sub-env's paths, step count and renderer: the single env's helper.
@@ -222,10 +240,11 @@ class SlamVectorEnv(VectorEnv):
             rng = generators[b]
             if rng is not None or rngs[b] is None:
                 rngs[b] = seeding.np_random()[0] if rng is None else rng
-        self.core.advance(self._idle, ~self._all, rows)
+        self._advance(self._idle, ~self._all, rows)
         self._finish_resets(rows)
         self._autoreset[rows] = False
         self._started = True
+        self._failed = False
         info, masks = self.core.infos()
         if len(rows) < self.num_envs:
             info = _select(info, mask)
@@ -256,6 +275,16 @@ class SlamVectorEnv(VectorEnv):
                 raise type(err)(f"seed[{i}] (sub-env {i}): {err}") from None
         return made
 
+    def _advance(self, commands: np.ndarray, stepping: np.ndarray, resetting: list[int]) -> None:
+        """The core's :meth:`~slam_env.core.raw.RawCore.advance`; if it raises (in any
+        chunk's thread), its sub-envs are left part-way through the call, so the env
+        refuses to step (``ResetNeeded``) until a reset of every sub-env."""
+        try:
+            self.core.advance(commands, stepping, resetting)
+        except BaseException:
+            self._started, self._failed = False, True
+            raise
+
     def _finish_resets(self, rows: list[int]) -> None:
         """After the sub-envs ``rows`` reset: their step counts and pictures."""
         self._elapsed[rows] = 0
@@ -263,6 +292,11 @@ class SlamVectorEnv(VectorEnv):
 
     def step(self, actions: Any) -> tuple[Any, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
         if not self._started:
+            if self._failed:
+                raise ResetNeeded(
+                    "the last step() or reset() raised part-way through: reset() every "
+                    "sub-env before step()"
+                )
             raise ResetNeeded("call reset() before step()")
         mode = self.autoreset_mode
         if mode == AutoresetMode.DISABLED and self._autoreset.any():
@@ -278,7 +312,7 @@ class SlamVectorEnv(VectorEnv):
         commands = fractions * self._max_command  # speed m/s, turn rate rad/s
         # NEXT_STEP: the sub-envs that ended last step start anew in this step's calls.
         starting = np.flatnonzero(resetting).tolist()
-        core.advance(commands, active, starting)
+        self._advance(commands, active, starting)
         self._elapsed += active
         stepped = np.flatnonzero(active).tolist()
         self._pictures.advance(stepped)
@@ -295,7 +329,7 @@ class SlamVectorEnv(VectorEnv):
             if done.any():  # the ended sub-envs start anew now
                 final = self._final(done)
                 ended = np.flatnonzero(done).tolist()
-                core.advance(self._idle, ~self._all, ended)
+                self._advance(self._idle, ~self._all, ended)
                 self._finish_resets(ended)
         else:
             self._autoreset = done
@@ -345,6 +379,7 @@ class SlamVectorEnv(VectorEnv):
             # A constructor that refused its arguments: nothing to close (gymnasium
             # 1.2's VectorEnv.__del__ closes such a half-made env).
             return
+        self.core.close()
         self._pictures.close()
 
     def _index(self, index: Any) -> int:
@@ -364,8 +399,8 @@ class SlamVectorEnv(VectorEnv):
         return int(index) % b
 
 
-def _raw_core(num_envs: int, **options: Any) -> RawCore:
-    return raw_core(num_envs, options)
+def _raw_cores(sizes: list[int], **options: Any) -> list[RawCore]:
+    return raw_cores(sizes, options)
 
 
 class LandmarksVectorEnv(SlamVectorEnv):
@@ -373,11 +408,11 @@ class LandmarksVectorEnv(SlamVectorEnv):
     the sub-envs are :class:`slam_env.envs.landmarks.LandmarksEnv`)."""
 
     def __init__(self, num_envs: int, **kwargs: Any) -> None:
-        super().__init__(num_envs, _raw_core, **kwargs)
+        super().__init__(num_envs, _raw_cores, **kwargs)
 
 
-def _active_core(num_envs: int, **options: Any) -> ActiveCore:
-    return active_core(num_envs, options)
+def _active_cores(sizes: list[int], **options: Any) -> list[ActiveCore]:
+    return active_cores(sizes, options)
 
 
 class ActiveSLAMVectorEnv(SlamVectorEnv):
@@ -386,7 +421,7 @@ class ActiveSLAMVectorEnv(SlamVectorEnv):
     options)."""
 
     def __init__(self, num_envs: int, **kwargs: Any) -> None:
-        super().__init__(num_envs, _active_core, **kwargs)
+        super().__init__(num_envs, _active_cores, **kwargs)
 
     def filter(self, index: int) -> EKFSLAM:
         """Sub-env ``index``'s EKF-SLAM filter (its state is the vector env's; a view,

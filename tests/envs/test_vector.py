@@ -44,6 +44,10 @@ CONFIGS = [
 ]
 
 
+# The thread counts the streams are compared across (T = 1: one core, today's path).
+THREADS = (1, 2, 3)
+
+
 def _row(tree: Any, i: int) -> Any:
     """Sub-env i's part of a batched observation or vector info: the keys its masks
     say it reported (the masks themselves dropped)."""
@@ -60,28 +64,35 @@ def _row(tree: Any, i: int) -> Any:
 def test_sub_env_i_replays_the_single_env_seeded_s_plus_i(env_id: str, options: dict) -> None:
     """Observations, rewards, flags and infos bit-identical over 1,000 steps that
     cross several episode ends (short episodes), each sub-env against its own single
-    env reset with seed s + i and then reset without a seed, as a user would."""
-    b, seed, steps, episode = 3, 11, 1000, 150
-    venv = gym.make_vec(
-        env_id,
-        num_envs=b,
-        vectorization_mode="vector_entry_point",
-        max_episode_steps=episode,
-        **options,
-    )
+    env reset with seed s + i and then reset without a seed, as a user would; for
+    vector envs on 1, 2 and 3 threads alike (B = 5: chunks of 5; 3 + 2; 2 + 2 + 1),
+    stepped in lockstep with the same actions."""
+    b, seed, steps, episode = 5, 11, 1000, 150
+    venvs = {
+        t: gym.make_vec(
+            env_id,
+            num_envs=b,
+            vectorization_mode="vector_entry_point",
+            max_episode_steps=episode,
+            num_threads=t,
+            **options,
+        )
+        for t in THREADS
+    }
     singles = [gym.make(env_id, max_episode_steps=episode, **options) for _ in range(b)]
-    venv.action_space.seed(0)
-    obs, info = venv.reset(seed=seed)
+    space = venvs[1].action_space
+    space.seed(0)
+    results = {t: venv.reset(seed=seed) for t, venv in venvs.items()}
     for i, env in enumerate(singles):
         o, inf = env.reset(seed=seed + i)
-        assert_same(_row(obs, i), o, "reset obs", exact_types=False)
-        assert_same(_row(info, i), inf, "reset info", exact_types=False)
+        for t, (obs, info) in results.items():
+            assert_same(_row(obs, i), o, f"reset obs T={t}", exact_types=False)
+            assert_same(_row(info, i), inf, f"reset info T={t}", exact_types=False)
     done = [False] * b
     ends = 0
-    for t in range(steps):
-        actions = venv.action_space.sample()
-        obs, rewards, terminated, truncated, info = venv.step(actions)
-        assert venv.observation_space.contains(obs)
+    for step in range(steps):
+        actions = space.sample()
+        stepped = {t: venv.step(actions) for t, venv in venvs.items()}
         for i, env in enumerate(singles):
             if done[i]:
                 o, inf = env.reset()
@@ -90,11 +101,17 @@ def test_sub_env_i_replays_the_single_env_seeded_s_plus_i(env_id: str, options: 
                 o, r, te, tr, inf = env.step(actions[i])
             done[i] = te or tr
             ends += done[i]
-            assert_same(_row(obs, i), o, f"obs t={t} i={i}", exact_types=False)
-            assert_same(_row(info, i), inf, f"info t={t} i={i}", exact_types=False)
-            assert (rewards[i], terminated[i], truncated[i]) == (r, te, tr), (t, i)
+            for t, (obs, rewards, terminated, truncated, info) in stepped.items():
+                where = f"t={step} i={i} T={t}"
+                assert i or venvs[t].observation_space.contains(obs), where
+                assert_same(_row(obs, i), o, f"obs {where}", exact_types=False)
+                assert_same(_row(info, i), inf, f"info {where}", exact_types=False)
+                assert (rewards[i], terminated[i], truncated[i]) == (r, te, tr), where
+    for _, rewards, terminated, truncated, _ in stepped.values():
+        assert rewards.dtype == np.float64 and terminated.dtype == truncated.dtype == np.bool_
     assert ends >= 3 * b  # the streams crossed resets
-    assert rewards.dtype == np.float64 and terminated.dtype == truncated.dtype == np.bool_
+    for venv in venvs.values():
+        venv.close()
 
 
 def _rollout(venv: gym.vector.VectorEnv, steps: int) -> list[Any]:

@@ -105,3 +105,14 @@ def test_an_edit_to_any_compiled_file_changes_its_cache_directory(tmp_path) -> N
             edited.write_text(text)
         assert Path(compiling.cache_directory(tree)).name == f"numba-{before}"
         shutil.rmtree(copy)
+
+
+def test_every_kernel_releases_the_gil() -> None:
+    """The vector env's chunks step on threads of one process: they run concurrently
+    only inside compiled code that drops the GIL."""
+    _compiled_files()  # imports every kernel
+    from slam_env.kernels.base.compiling import KERNELS
+
+    assert len(KERNELS) >= 30
+    held = [k.py_func.__qualname__ for k in KERNELS if not k.targetoptions.get("nogil")]
+    assert not held, held
