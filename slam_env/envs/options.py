@@ -29,10 +29,11 @@ ENV_ARGUMENTS = ("config", "render_mode")
 ACTIVE_ARGUMENTS = ENV_ARGUMENTS + ActiveSLAMOptions.argument_names()
 
 
-def raw_core(num_envs: int, options: Mapping[str, Any]) -> RawCore:
+def raw_core(num_envs: int, options: Mapping[str, Any], owner: str) -> RawCore:
     """The raw core of ``num_envs`` sub-envs of ``slam_env/Landmarks-v0`` with
-    ``options`` (the config's, flat or nested, or a whole ``config``), checked first."""
-    check_option_names(options, ENV_ARGUMENTS)
+    ``options`` (the config's, flat or nested, or a whole ``config``), checked first;
+    an unknown name is refused as Python refuses it for the function ``owner``."""
+    check_option_names(options, ENV_ARGUMENTS, owner)
     options = dict(options)
     config = make_config(options.pop("config", None), **options)
     # Everything that scales work or memory, for all the sub-envs, before it is built.
@@ -40,13 +41,14 @@ def raw_core(num_envs: int, options: Mapping[str, Any]) -> RawCore:
     return RawCore(config, num_envs)
 
 
-def active_core(num_envs: int, options: Mapping[str, Any]) -> ActiveCore:
+def active_core(num_envs: int, options: Mapping[str, Any], owner: str) -> ActiveCore:
     """The active-SLAM core of ``num_envs`` sub-envs of ``slam_env/ActiveSLAM-v0`` with
-    ``options``: its own (:class:`ActiveSLAMOptions`) and the world's, checked first."""
+    ``options``: its own (:class:`ActiveSLAMOptions`) and the world's, checked first (an
+    unknown name as Python refuses it for the function ``owner``)."""
     env_options = dict(options)
     own = {k: env_options.pop(k) for k in ActiveSLAMOptions.argument_names() if k in options}
     active = ActiveSLAMOptions(**own)
-    check_option_names(env_options, ACTIVE_ARGUMENTS)
+    check_option_names(env_options, ACTIVE_ARGUMENTS, owner)
     return ActiveCore(active_config(active, env_options, num_envs), num_envs, active)
 
 

@@ -20,8 +20,6 @@ from gymnasium.utils import seeding
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
-from slam_env.core.active import ActiveCore
-from slam_env.core.raw import RawCore
 from slam_env.ekf import EKFSLAM
 from slam_env.envs.actions import DISCRETE_PRIMITIVES, parse_actions
 from slam_env.envs.options import active_core, raw_core
@@ -106,8 +104,9 @@ class SlamVectorEnv(VectorEnv):
 
     Args:
         num_envs: B.
-        core_factory: ``(config, num_envs, **env_options) -> core``, the batched core of
-            the ID (:class:`slam_env.core.raw.RawCore` for ``Landmarks-v0``).
+        core_factory: ``(num_envs, options, owner) -> core``, the batched core of the
+            ID (:func:`slam_env.envs.options.raw_core` for ``Landmarks-v0``), which
+            refuses an unknown option as Python refuses it for the function ``owner``.
         max_episode_steps: truncation, as ``gym.make``'s ``TimeLimit`` does for the single
             env (``None``: never).
         autoreset_mode: an :class:`~gymnasium.vector.AutoresetMode` or its value, also
@@ -157,7 +156,7 @@ class SlamVectorEnv(VectorEnv):
         if render_mode not in (None, "rgb_array"):
             raise ValueError(f"render_mode must be None or 'rgb_array', got {render_mode!r}")
         self.num_envs = int(num_envs)
-        self.core = core_factory(num_envs=self.num_envs, **options)
+        self.core = core_factory(self.num_envs, options, f"{type(self).__name__}.__init__")
         self.config = self.core.config
         self.autoreset_mode = mode
         self.metadata = {
@@ -364,20 +363,12 @@ class SlamVectorEnv(VectorEnv):
         return int(index) % b
 
 
-def _raw_core(num_envs: int, **options: Any) -> RawCore:
-    return raw_core(num_envs, options)
-
-
 class LandmarksVectorEnv(SlamVectorEnv):
     """The native vector env of ``slam_env/Landmarks-v0`` (see :class:`SlamVectorEnv`;
     the sub-envs are :class:`slam_env.envs.landmarks.LandmarksEnv`)."""
 
     def __init__(self, num_envs: int, **kwargs: Any) -> None:
-        super().__init__(num_envs, _raw_core, **kwargs)
-
-
-def _active_core(num_envs: int, **options: Any) -> ActiveCore:
-    return active_core(num_envs, options)
+        super().__init__(num_envs, raw_core, **kwargs)
 
 
 class ActiveSLAMVectorEnv(SlamVectorEnv):
@@ -386,7 +377,7 @@ class ActiveSLAMVectorEnv(SlamVectorEnv):
     options)."""
 
     def __init__(self, num_envs: int, **kwargs: Any) -> None:
-        super().__init__(num_envs, _active_core, **kwargs)
+        super().__init__(num_envs, active_core, **kwargs)
 
     def filter(self, index: int) -> EKFSLAM:
         """Sub-env ``index``'s EKF-SLAM filter (its state is the vector env's; a view,
