@@ -180,6 +180,7 @@ class SlamVectorEnv(VectorEnv):
         # The sub-envs that ended in the last step and were not reset since: NEXT_STEP
         # resets them in the next step, DISABLED refuses to step them.
         self._autoreset = np.zeros(b, dtype=bool)
+        self._sub_seeds: list[int | None] = [None] * b  # each sub-env's, np_random_seed
         self._started = False
         self._all = np.ones(b, dtype=bool)
         self._idle = np.zeros((b, 2))  # the commands of sub-envs that only reset
@@ -218,9 +219,11 @@ class SlamVectorEnv(VectorEnv):
         rows = np.flatnonzero(mask).tolist()
         rngs = self.core.rngs
         for b in rows:
-            rng = generators[b]
-            if rng is not None or rngs[b] is None:
-                rngs[b] = seeding.np_random()[0] if rng is None else rng
+            made = generators[b]
+            if made is None and rngs[b] is None:
+                made = seeding.np_random()  # fresh entropy, the first time only
+            if made is not None:
+                rngs[b], self._sub_seeds[b] = made
         self.core.advance(self._idle, ~self._all, rows)
         self._finish_resets(rows)
         self._autoreset[rows] = False
@@ -243,17 +246,30 @@ class SlamVectorEnv(VectorEnv):
         raise TypeError(f"seed must be an int, a list of {b} ints or None, got {seed!r}")
 
     @staticmethod
-    def _generators(seeds: list[Any]) -> list[np.random.Generator | None]:
-        """Each sub-env's new generator (None where its seed is None), made before any
-        is used, so that a bad seed (Gymnasium's ``error.Error``, as the single env's)
-        changes nothing."""
+    def _generators(seeds: list[Any]) -> list[tuple[np.random.Generator, int] | None]:
+        """Each sub-env's new generator and its seed (None where its seed is None),
+        made before any is used, so that a bad seed (Gymnasium's ``error.Error``, as
+        the single env's) changes nothing."""
         made = []
         for i, s in enumerate(seeds):
             try:
-                made.append(None if s is None else seeding.np_random(s)[0])
+                made.append(None if s is None else seeding.np_random(s))
             except gym_error.Error as err:
                 raise type(err)(f"seed[{i}] (sub-env {i}): {err}") from None
         return made
+
+    @property
+    def np_random_seed(self) -> tuple[int, ...]:
+        """Each sub-env's seed, as :class:`~gymnasium.vector.SyncVectorEnv` reports
+        them: the one its last seeded reset gave it (s + i after ``reset(seed=s)``), or
+        the entropy its generator was drawn from. A sub-env not seeded yet gets its
+        generator now, as ``Env.np_random_seed`` does, which ``reset(seed=None)`` then
+        continues."""
+        rngs = self.core.rngs
+        for b, seed in enumerate(self._sub_seeds):
+            if seed is None:
+                rngs[b], self._sub_seeds[b] = seeding.np_random()
+        return tuple(self._sub_seeds)
 
     def _finish_resets(self, rows: list[int]) -> None:
         """After the sub-envs ``rows`` reset: their step counts and pictures."""
