@@ -407,13 +407,20 @@ def option_names(extra: Iterable[str] = ()) -> list[str]:
     return sorted(set(top) | set(_flat_option_names()) | set(extra))
 
 
-def check_option_names(names: Iterable[str], extra: Iterable[str] = ()) -> None:
-    """``TypeError`` for the first name that is neither an option nor in ``extra``,
-    listing every valid name."""
+def check_option_names(
+    names: Iterable[str], extra: Iterable[str] = (), owner: str = "make_config"
+) -> None:
+    """``TypeError`` for the first name that is neither an option nor in ``extra``, in
+    the words Python uses for the function ``owner`` (``"LandmarksEnv.__init__"``) and
+    then every valid name. Wrappers such as torchrl's ``GymEnv`` try an argument
+    (``frameskip``) and drop it when the error says it in those words."""
     valid = option_names(extra)
     for name in names:
         if name not in valid:
-            raise TypeError(f"unknown slam_env option {name!r}; valid options: {', '.join(valid)}")
+            raise TypeError(
+                f"{owner}() got an unexpected keyword argument {name!r}; "
+                f"valid options: {', '.join(valid)}"
+            )
 
 
 def with_defaults(options: Mapping[str, Any], defaults: Mapping[str, Any]) -> dict[str, Any]:

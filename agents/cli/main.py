@@ -162,6 +162,12 @@ def build_parser() -> argparse.ArgumentParser:
         "--settings",
         help="with --suite: only these of its settings, comma-separated (e.g. default,rooms)",
     )
+    p.add_argument(
+        "--export-trajectories",
+        metavar="DIR",
+        help="also write each episode's true and estimated trajectories (TUM files, for "
+        "evo) and final map (CSV) into DIR/<agent>/",
+    )
 
     p = sub.add_parser(
         "demo",
@@ -280,6 +286,12 @@ def _run_evaluate(args: argparse.Namespace) -> int:
     from agents.evaluation.compare import evaluate
 
     check_writable_dir(args.out)
+    if args.export_trajectories is not None:
+        if args.suite is not None:
+            raise ValueError(
+                "--export-trajectories writes a plain evaluation's episodes: drop --suite"
+            )
+        check_writable_dir(args.export_trajectories, "--export-trajectories")
     if args.suite is not None:
         return _run_suite(args)
     if args.settings is not None:
@@ -292,6 +304,7 @@ def _run_evaluate(args: argparse.Namespace) -> int:
         out_dir=args.out,
         max_steps=args.max_steps,
         progress=not args.no_progress,
+        trajectories_dir=args.export_trajectories,
     )
     for name, path in result.files.items():
         print(f"{name}: {path}")

@@ -52,6 +52,7 @@ from agents.common.arguments import check_count
 from agents.common.base import Agent
 from agents.common.env import make_env
 from agents.evaluation.statistics import CONFIDENCE, mean_ci
+from agents.evaluation.trajectories import export_trajectories
 from agents.registry import agent_label, make_agent
 from agents.rollouts.episodes import run_episode
 from agents.rollouts.records import METRICS, POSE_DOF, EpisodeRecord, check_episode_memory
@@ -275,13 +276,17 @@ def evaluate(
     progress: bool = True,
     verbose: bool = True,
     agent_factory: Callable[[str, gym.Env, int], Agent] | None = None,
+    trajectories_dir: str | Path | None = None,
 ) -> EvaluationResult:
     """Run every agent of ``agent_specs`` (specs of :func:`agents.registry.make_agent`,
     or one comma-separated string) for ``episodes`` episodes on the same seeded worlds
     (episode i: ``reset(seed=seed + i)``), write ``summary.csv``, ``episodes.csv``,
     ``results.json``, ``trajectories.png`` (episode ``plot_episode``),
     ``metrics_over_time.png`` and ``consistency.png`` into ``out_dir``, print the
-    summary when ``verbose``, and return an :class:`EvaluationResult`. All agents are
+    summary when ``verbose``, and return an :class:`EvaluationResult`. With
+    ``trajectories_dir``, every episode's true and estimated trajectories (TUM files,
+    which evo reads) and final map (CSV) go there too
+    (:func:`agents.evaluation.trajectories.export_trajectories`). All agents are
     built (and PPO files checked against the env) before anything runs."""
     from agents.registry import parse_agent_specs
 
@@ -303,6 +308,7 @@ def evaluate(
             label = agent_label(spec)
             envs[label] = make_env(env_options, max_steps)
             agents[label] = factory(spec, envs[label], seed)
+        dt = envs[label].unwrapped.config.dt  # s per step, the same for every agent's env
 
         from tqdm.auto import tqdm
 
@@ -369,6 +375,9 @@ def evaluate(
         json.dumps(json_safe(payload), indent=2, allow_nan=False) + "\n"
     )
     files.update(_plot(records, plot_episode, out))
+    if trajectories_dir is not None:
+        export_trajectories(records, trajectories_dir, dt)
+        files["trajectories_dir"] = Path(trajectories_dir)
     result = EvaluationResult(summary_rows, episode_rows, settings, files, records)
     if verbose:
         print_summary(result)

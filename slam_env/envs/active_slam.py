@@ -97,7 +97,7 @@ class ActiveSLAMEnv(CoreEnv):
 
     def __init__(self, render_mode: str | None = None, **options: Any) -> None:
         # The signature below lists the options (ActiveSLAMOptions is their table).
-        core = active_core(1, options)
+        core = active_core(1, options, f"{type(self).__name__}.__init__")
         # A batch of one: the native vector env runs the same core for B sub-envs.
         self._setup(core, render_mode)
         self.options = core.options

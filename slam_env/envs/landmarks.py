@@ -113,7 +113,8 @@ class LandmarksEnv(CoreEnv):
         self, render_mode: str | None = None, config: EnvConfig | None = None, **options: Any
     ) -> None:
         # A batch of one: the native vector env runs the same core for B sub-envs.
-        self._setup(raw_core(1, {"config": config, **options}), render_mode)
+        core = raw_core(1, {"config": config, **options}, f"{type(self).__name__}.__init__")
+        self._setup(core, render_mode)
         config = self.config
         # The sensor models on their own, for users who sense this world themselves.
         self.sensor = LandmarkSensor(config.sensor)

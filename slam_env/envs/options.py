@@ -31,16 +31,18 @@ ENV_ARGUMENTS = ("config", "render_mode")
 ACTIVE_ARGUMENTS = ENV_ARGUMENTS + ActiveSLAMOptions.argument_names()
 
 
-def raw_core(num_envs: int, options: Mapping[str, Any]) -> RawCore:
+def raw_core(num_envs: int, options: Mapping[str, Any], owner: str) -> RawCore:
     """The raw core of ``num_envs`` sub-envs of ``slam_env/Landmarks-v0`` with
-    ``options`` (the config's, flat or nested, or a whole ``config``), checked first."""
-    return raw_cores([num_envs], options)[0]
+    ``options`` (the config's, flat or nested, or a whole ``config``), checked first;
+    an unknown name is refused as Python refuses it for the function ``owner``."""
+    return raw_cores([num_envs], options, owner)[0]
 
 
-def raw_cores(sizes: Sequence[int], options: Mapping[str, Any]) -> list[RawCore]:
+def raw_cores(sizes: Sequence[int], options: Mapping[str, Any], owner: str) -> list[RawCore]:
     """A raw core of each size of ``sizes`` (the chunks of one vector env), all with
-    ``options``, checked first for all of their sub-envs together."""
-    check_option_names(options, ENV_ARGUMENTS)
+    ``options``, checked first for all of their sub-envs together (an unknown name as
+    Python refuses it for the function ``owner``)."""
+    check_option_names(options, ENV_ARGUMENTS, owner)
     options = dict(options)
     config = make_config(options.pop("config", None), **options)
     # Everything that scales work or memory, for all the sub-envs, before it is built.
@@ -48,19 +50,21 @@ def raw_cores(sizes: Sequence[int], options: Mapping[str, Any]) -> list[RawCore]
     return [RawCore(config, n) for n in sizes]
 
 
-def active_core(num_envs: int, options: Mapping[str, Any]) -> ActiveCore:
+def active_core(num_envs: int, options: Mapping[str, Any], owner: str) -> ActiveCore:
     """The active-SLAM core of ``num_envs`` sub-envs of ``slam_env/ActiveSLAM-v0`` with
-    ``options``: its own (:class:`ActiveSLAMOptions`) and the world's, checked first."""
-    return active_cores([num_envs], options)[0]
+    ``options``: its own (:class:`ActiveSLAMOptions`) and the world's, checked first (an
+    unknown name as Python refuses it for the function ``owner``)."""
+    return active_cores([num_envs], options, owner)[0]
 
 
-def active_cores(sizes: Sequence[int], options: Mapping[str, Any]) -> list[ActiveCore]:
+def active_cores(sizes: Sequence[int], options: Mapping[str, Any], owner: str) -> list[ActiveCore]:
     """An active-SLAM core of each size of ``sizes`` (the chunks of one vector env), all
-    with ``options``, checked first for all of their sub-envs together."""
+    with ``options``, checked first for all of their sub-envs together (an unknown name
+    as Python refuses it for the function ``owner``)."""
     env_options = dict(options)
     own = {k: env_options.pop(k) for k in ActiveSLAMOptions.argument_names() if k in options}
     active = ActiveSLAMOptions(**own)
-    check_option_names(env_options, ACTIVE_ARGUMENTS)
+    check_option_names(env_options, ACTIVE_ARGUMENTS, owner)
     config = active_config(active, env_options, sum(sizes))
     return [ActiveCore(config, n, active) for n in sizes]
 

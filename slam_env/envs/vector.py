@@ -21,9 +21,7 @@ from gymnasium.utils import seeding
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
-from slam_env.core.active import ActiveCore
 from slam_env.core.chunks import ChunkedCore, chunk_sizes, thread_count
-from slam_env.core.raw import RawCore
 from slam_env.ekf import EKFSLAM
 from slam_env.envs.actions import DISCRETE_PRIMITIVES, parse_actions
 from slam_env.envs.options import active_cores, raw_cores
@@ -108,9 +106,10 @@ class SlamVectorEnv(VectorEnv):
 
     Args:
         num_envs: B.
-        cores_factory: ``(sizes, **options) -> [core, ...]``, a batched core of the ID
-            for each size (:class:`slam_env.core.raw.RawCore` for ``Landmarks-v0``),
-            the options checked for all of them together.
+        cores_factory: ``(sizes, options, owner) -> [core, ...]``, a batched core of
+            the ID for each size (:func:`slam_env.envs.options.raw_cores` for
+            ``Landmarks-v0``), the options checked for all of them together, an unknown
+            one refused as Python refuses it for the function ``owner``.
         max_episode_steps: truncation, as ``gym.make``'s ``TimeLimit`` does for the single
             env (``None``: never).
         autoreset_mode: an :class:`~gymnasium.vector.AutoresetMode` or its value, also
@@ -173,7 +172,8 @@ class SlamVectorEnv(VectorEnv):
             raise ValueError(f"render_mode must be None or 'rgb_array', got {render_mode!r}")
         self.num_envs = int(num_envs)
         self.num_threads = thread_count(num_threads, self.num_envs)
-        cores = cores_factory(chunk_sizes(self.num_envs, self.num_threads), **options)
+        sizes = chunk_sizes(self.num_envs, self.num_threads)
+        cores = cores_factory(sizes, options, f"{type(self).__name__}.__init__")
         self.core = cores[0] if len(cores) == 1 else ChunkedCore(cores)
         self.config = self.core.config
         self.autoreset_mode = mode
@@ -198,6 +198,7 @@ class SlamVectorEnv(VectorEnv):
         # The sub-envs that ended in the last step and were not reset since: NEXT_STEP
         # resets them in the next step, DISABLED refuses to step them.
         self._autoreset = np.zeros(b, dtype=bool)
+        self._sub_seeds: list[int | None] = [None] * b  # each sub-env's, np_random_seed
         self._started = False
         self._failed = False  # a step or reset raised part-way: a full reset is needed
         self._all = np.ones(b, dtype=bool)
@@ -237,9 +238,11 @@ class SlamVectorEnv(VectorEnv):
         rows = np.flatnonzero(mask).tolist()
         rngs = self.core.rngs
         for b in rows:
-            rng = generators[b]
-            if rng is not None or rngs[b] is None:
-                rngs[b] = seeding.np_random()[0] if rng is None else rng
+            made = generators[b]
+            if made is None and rngs[b] is None:
+                made = seeding.np_random()  # fresh entropy, the first time only
+            if made is not None:
+                rngs[b], self._sub_seeds[b] = made
         self._advance(self._idle, ~self._all, rows)
         self._finish_resets(rows)
         self._autoreset[rows] = False
@@ -263,14 +266,14 @@ class SlamVectorEnv(VectorEnv):
         raise TypeError(f"seed must be an int, a list of {b} ints or None, got {seed!r}")
 
     @staticmethod
-    def _generators(seeds: list[Any]) -> list[np.random.Generator | None]:
-        """Each sub-env's new generator (None where its seed is None), made before any
-        is used, so that a bad seed (Gymnasium's ``error.Error``, as the single env's)
-        changes nothing."""
+    def _generators(seeds: list[Any]) -> list[tuple[np.random.Generator, int] | None]:
+        """Each sub-env's new generator and its seed (None where its seed is None),
+        made before any is used, so that a bad seed (Gymnasium's ``error.Error``, as
+        the single env's) changes nothing."""
         made = []
         for i, s in enumerate(seeds):
             try:
-                made.append(None if s is None else seeding.np_random(s)[0])
+                made.append(None if s is None else seeding.np_random(s))
             except gym_error.Error as err:
                 raise type(err)(f"seed[{i}] (sub-env {i}): {err}") from None
         return made
@@ -284,6 +287,19 @@ class SlamVectorEnv(VectorEnv):
         except BaseException:
             self._started, self._failed = False, True
             raise
+
+    @property
+    def np_random_seed(self) -> tuple[int, ...]:
+        """Each sub-env's seed, as :class:`~gymnasium.vector.SyncVectorEnv` reports
+        them: the one its last seeded reset gave it (s + i after ``reset(seed=s)``), or
+        the entropy its generator was drawn from. A sub-env not seeded yet gets its
+        generator now, as ``Env.np_random_seed`` does, which ``reset(seed=None)`` then
+        continues."""
+        rngs = self.core.rngs
+        for b, seed in enumerate(self._sub_seeds):
+            if seed is None:
+                rngs[b], self._sub_seeds[b] = seeding.np_random()
+        return tuple(self._sub_seeds)
 
     def _finish_resets(self, rows: list[int]) -> None:
         """After the sub-envs ``rows`` reset: their step counts and pictures."""
@@ -399,20 +415,12 @@ class SlamVectorEnv(VectorEnv):
         return int(index) % b
 
 
-def _raw_cores(sizes: list[int], **options: Any) -> list[RawCore]:
-    return raw_cores(sizes, options)
-
-
 class LandmarksVectorEnv(SlamVectorEnv):
     """The native vector env of ``slam_env/Landmarks-v0`` (see :class:`SlamVectorEnv`;
     the sub-envs are :class:`slam_env.envs.landmarks.LandmarksEnv`)."""
 
     def __init__(self, num_envs: int, **kwargs: Any) -> None:
-        super().__init__(num_envs, _raw_cores, **kwargs)
-
-
-def _active_cores(sizes: list[int], **options: Any) -> list[ActiveCore]:
-    return active_cores(sizes, options)
+        super().__init__(num_envs, raw_cores, **kwargs)
 
 
 class ActiveSLAMVectorEnv(SlamVectorEnv):
@@ -421,7 +429,7 @@ class ActiveSLAMVectorEnv(SlamVectorEnv):
     options)."""
 
     def __init__(self, num_envs: int, **kwargs: Any) -> None:
-        super().__init__(num_envs, _active_cores, **kwargs)
+        super().__init__(num_envs, active_cores, **kwargs)
 
     def filter(self, index: int) -> EKFSLAM:
         """Sub-env ``index``'s EKF-SLAM filter (its state is the vector env's; a view,

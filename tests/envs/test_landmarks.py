@@ -255,7 +255,7 @@ def test_bad_discrete_actions_raise(action):
 
 
 def test_misspelt_option_is_an_error():
-    with pytest.raises(TypeError, match="unknown slam_env option 'n_landmark'"):
+    with pytest.raises(TypeError, match="unexpected keyword argument 'n_landmark'"):
         gym.make(ENV_ID, n_landmark=5)
     with pytest.raises(TypeError, match="unknown sensor option 'range'"):
         gym.make(ENV_ID, sensor={"range": 3.0})

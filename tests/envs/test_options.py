@@ -13,6 +13,7 @@ import pytest
 import slam_env
 from slam_env.config import _SECTIONS, make_config, option_names
 from slam_env.core.active_options import ACTIVE_SLAM_DEFAULTS, ActiveSLAMOptions
+from slam_env.ekf import EKFSLAM
 from slam_env.envs.active_slam import ActiveSLAMEnv
 from slam_env.envs.landmarks import LandmarksEnv
 from slam_env.envs.options import ACTIVE_ARGUMENTS, ENV_ARGUMENTS
@@ -184,12 +185,51 @@ def test_active_slam_options_are_named_in_their_errors(option, error):
     [(LandmarksEnv, ENV_ARGUMENTS), (ActiveSLAMEnv, ACTIVE_ARGUMENTS)],
 )
 def test_an_unknown_option_lists_every_name_the_id_accepts(env_class, own):
-    with pytest.raises(TypeError, match="unknown slam_env option 'fvo'") as exc:
+    with pytest.raises(TypeError, match="unexpected keyword argument 'fvo'") as exc:
         env_class(fvo=2.0)
     listed = set(str(exc.value).split("valid options: ")[1].split(", "))
     assert listed == set(option_names()) | set(own)
     if env_class is ActiveSLAMEnv:
         assert {"observation", "gate", "filter_alphas", "coverage", "reward_weights"} <= listed
+
+
+def _make_single(env_id, **kwargs):
+    return gym.make(env_id, **kwargs)
+
+
+def _make_vector(env_id, **kwargs):
+    return gym.make_vec(env_id, num_envs=2, vectorization_mode="vector_entry_point", **kwargs)
+
+
+@pytest.mark.parametrize(
+    ("env_id", "make", "owner"),
+    [
+        (RAW, _make_single, "LandmarksEnv"),
+        (ACTIVE, _make_single, "ActiveSLAMEnv"),
+        (RAW, _make_vector, "LandmarksVectorEnv"),
+        (ACTIVE, _make_vector, "ActiveSLAMVectorEnv"),
+    ],
+)
+def test_an_unknown_keyword_is_refused_in_pythons_own_words(env_id, make, owner):
+    # torchrl's GymEnv passes frameskip=1 and drops it only when the TypeError says
+    # "unexpected keyword argument 'frameskip'", as Python's own does.
+    with pytest.raises(TypeError) as exc:
+        make(env_id, frameskip=1)
+    message = str(exc.value)
+    assert message.startswith(
+        f"{owner}.__init__() got an unexpected keyword argument 'frameskip'; valid options: "
+    )
+    assert "max_range" in message.split("valid options: ")[1].split(", ")
+
+
+def test_an_unknown_keyword_of_make_config_and_of_the_filter_reads_as_pythons():
+    with pytest.raises(
+        TypeError, match=r"^make_config\(\) got an unexpected keyword argument 'fvo'"
+    ):
+        make_config(fvo=1.0)
+    # EKFSLAM takes no **kwargs: Python itself refuses.
+    with pytest.raises(TypeError, match=r"__init__\(\) got an unexpected keyword argument 'fvo'"):
+        EKFSLAM(fvo=1.0)
 
 
 @pytest.mark.parametrize("env_id", [RAW, ACTIVE])

@@ -526,3 +526,78 @@ def test_make_vec_warns_of_nothing() -> None:
         with warnings.catch_warnings():
             warnings.simplefilter("error")
             native(ACTIVE, 2, autoreset_mode=mode).close()
+
+
+# ---------------------------------------------------------------------- the rest of Gymnasium's
+# What tests/envs/test_envs.py, tests/envs/registration/test_env_spec.py and
+# tests/vector/test_vector_env.py of Gymnasium check that the tests above do not.
+@pytest.mark.parametrize("env_id", IDS)
+def test_the_passive_checker_of_gym_make_warns_of_nothing(env_id: str) -> None:
+    """Gymnasium's test_all_env_passive_env_checker: gym.make wraps the env in its
+    passive checker, which finds nothing to warn of in a reset and steps."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        env = gym.make(env_id)
+        env.reset(seed=0)
+        for _ in range(3):
+            env.step(env.action_space.sample())
+        env.close()
+
+
+@pytest.mark.parametrize("env_id", IDS)
+def test_every_spec_round_trips_through_json(env_id: str) -> None:
+    """Gymnasium's test_env_spec_to_from_json: the registered spec, a made env's (with
+    options) and the native vector env's."""
+    specs = [
+        gym.spec(env_id),
+        gym.make(env_id, n_landmarks=5, max_range=3.0).spec,
+        # The mode by its value: JSON takes no AutoresetMode (Gymnasium's own limit).
+        native(env_id, 2, autoreset_mode=AutoresetMode.SAME_STEP.value, n_landmarks=5).spec,
+    ]
+    for spec in specs:
+        assert spec is not None
+        assert gym.envs.registration.EnvSpec.from_json(spec.to_json()) == spec
+
+
+@pytest.mark.parametrize("env_id", IDS)
+def test_np_random_seed_is_each_sub_envs_as_sync_vector_envs(env_id: str) -> None:
+    """Gymnasium's test_random_seeding_basics: after reset(seed=42) the seeds are
+    (42, 43, 44), as SyncVectorEnv's; reset(seed=None) keeps them; a list sets each."""
+    ours = native(env_id, 3, **FEW)
+    theirs = sync(env_id, 3, AutoresetMode.NEXT_STEP, **FEW)
+    for venv in (ours, theirs):
+        venv.reset(seed=42)
+        assert venv.np_random_seed == (42, 43, 44)
+        venv.reset(seed=None)
+        assert venv.np_random_seed == (42, 43, 44)
+        venv.reset(seed=[7, None, 9])
+        assert venv.np_random_seed == (7, 43, 9)
+        venv.reset(seed=[1, 2, 3], options={"reset_mask": np.array([False, True, False])})
+        assert venv.np_random_seed == (7, 2, 9)
+
+
+def test_np_random_seed_before_a_reset_is_the_generator_the_reset_continues() -> None:
+    """As Env.np_random_seed: asked before any seeded reset, each sub-env draws its
+    generator from fresh entropy, and reset(seed=None) continues that generator: the
+    stream is the one reset(seed=np_random_seed) gives."""
+    venv = native(LANDMARKS, 2)
+    seeds = venv.np_random_seed
+    assert len(seeds) == 2 and len(set(seeds)) == 2
+    assert all(isinstance(s, int) and s >= 0 for s in seeds)
+    assert venv.np_random_seed == seeds
+    assert_equal(venv.reset(), native(LANDMARKS, 2).reset(seed=list(seeds)))
+
+
+@pytest.mark.parametrize("env_id", IDS)
+def test_the_spaces_are_the_single_envs_batched(env_id: str) -> None:
+    """Gymnasium's test_vector_obs_action_spaces: the vector spaces batch the single
+    env's, and what reset and step return lies in them."""
+    venv = native(env_id, 3, **FEW)
+    single = gym.make(env_id, **FEW)
+    assert venv.single_observation_space == single.observation_space
+    assert venv.single_action_space == single.action_space
+    assert venv.observation_space == gym.vector.utils.batch_space(single.observation_space, 3)
+    assert venv.action_space == gym.vector.utils.batch_space(single.action_space, 3)
+    obs, _ = venv.reset(seed=0)
+    assert obs in venv.observation_space
+    assert venv.step(venv.action_space.sample())[0] in venv.observation_space
