@@ -304,3 +304,12 @@ def test_registry_reports_a_missing_heuristic(monkeypatch):
     with pytest.raises(ValueError, match="agent 'frontier' is not available"):
         make_agent("frontier", env)
     env.close()
+
+
+@pytest.mark.parametrize("association", ["nearest_neighbor", "jcbb"])
+def test_cli_evaluate_runs_infogain_where_the_filter_associates(association, tmp_path):
+    argv = ["evaluate", "--agents", "random,infogain", "--episodes", "1", "--max-steps", "8"]
+    argv += ["--out", str(tmp_path), "--no-progress", *SMALL_ARGS]
+    assert main([*argv, "--env-option", f"data_association={association}"]) == 0
+    with open(tmp_path / "episodes.csv", newline="") as fh:
+        assert [r["agent"] for r in csv.DictReader(fh)] == ["random", "infogain"]
