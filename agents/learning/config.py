@@ -304,7 +304,27 @@ def validate_config(cfg: TrainConfig) -> TrainConfig:
     )
     _check(isinstance(cfg.ppo, PPOParams), "ppo", cfg.ppo, "a mapping of PPO hyperparameters")
     _validate_ppo(cfg.ppo)
+    if cfg.worlds is not None:
+        _validate_world_settings(cfg)
     return cfg
+
+
+def _validate_world_settings(cfg: TrainConfig) -> None:
+    """Every setting ``worlds`` may draw runs with ``env_options`` (on a native vector
+    env of a group's sub-envs, or a single env for goals), or a :class:`ConfigError`."""
+    from agents.common.env import check_env_options
+    from agents.learning.worlds import WorldDistribution
+
+    native = cfg.decisions == "actions"
+    group = cfg.n_envs // (cfg.world_groups or cfg.n_envs) if native else 1
+    try:
+        check_env_options(cfg.env_options, group)
+    except ValueError as exc:
+        raise ConfigError(f"config key 'env_options': {exc}") from None
+    try:
+        WorldDistribution.from_mapping(cfg.worlds).check(cfg.env_options, group)
+    except ValueError as exc:
+        raise ConfigError(str(exc)) from None
 
 
 def _from_mapping(cls: type, data: Mapping[str, Any], where: str) -> dict[str, Any]:

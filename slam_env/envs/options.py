@@ -20,6 +20,7 @@ __all__ = [
     "ENV_ARGUMENTS",
     "active_config",
     "active_core",
+    "check_active_options",
     "options_signature",
     "raw_core",
 ]
@@ -43,11 +44,22 @@ def raw_core(num_envs: int, options: Mapping[str, Any]) -> RawCore:
 def active_core(num_envs: int, options: Mapping[str, Any]) -> ActiveCore:
     """The active-SLAM core of ``num_envs`` sub-envs of ``slam_env/ActiveSLAM-v0`` with
     ``options``: its own (:class:`ActiveSLAMOptions`) and the world's, checked first."""
+    active, config = check_active_options(num_envs, options)
+    return ActiveCore(config, num_envs, active)
+
+
+def check_active_options(
+    num_envs: int, options: Mapping[str, Any]
+) -> tuple[ActiveSLAMOptions, EnvConfig]:
+    """``options`` of ``num_envs`` sub-envs of ``slam_env/ActiveSLAM-v0`` checked as
+    making the env checks them (the option table, the budget), nothing built: its own
+    options and the world's config. ``TypeError`` for an unknown name, ``ValueError``
+    for a bad value."""
     env_options = dict(options)
     own = {k: env_options.pop(k) for k in ActiveSLAMOptions.argument_names() if k in options}
     active = ActiveSLAMOptions(**own)
     check_option_names(env_options, ACTIVE_ARGUMENTS)
-    return ActiveCore(active_config(active, env_options, num_envs), num_envs, active)
+    return active, active_config(active, env_options, num_envs)
 
 
 def options_signature(init: Any, table: type) -> inspect.Signature:
