@@ -12,6 +12,7 @@ from typing import Any
 import gymnasium as gym
 
 from agents.common.env import make_env
+from agents.learning.budget import check_training_budget
 from agents.learning.config import ConfigError, TrainConfig
 
 
@@ -25,6 +26,7 @@ def check_train_env(cfg: TrainConfig) -> str:
         space = env.observation_space
     finally:
         env.close()
+    check_training_budget(cfg, space, env.action_space)
     local = cfg.env_options.get("observation") == "local"
     if cfg.worlds is not None and not local:
         raise ConfigError(

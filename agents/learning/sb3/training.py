@@ -53,8 +53,8 @@ def train(config: TrainConfig | Mapping[str, Any] | str | Path | None = None) ->
     cfg = as_train_config(config)
     if cfg.decisions == "goals":
         return train_goal_choice(cfg)
-    torch.set_num_threads(cfg.torch_threads)
     policy = check_train_env(cfg)
+    torch.set_num_threads(cfg.torch_threads)
     out = Path(cfg.out_dir)
     out.mkdir(parents=True, exist_ok=True)
     model_path = out / f"{cfg.model_name}.zip"
