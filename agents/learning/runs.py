@@ -41,6 +41,20 @@ def check_train_env(cfg: TrainConfig) -> str:
     return "MultiInputPolicy" if local else "MlpPolicy"
 
 
+def model_path(cfg: TrainConfig) -> Path:
+    """Where the policy is saved, ``OUT/<model_name>.zip``; ``ConfigError`` before
+    anything runs where that or its config's path is taken by something not a file
+    (SB3 would save beside a folder there, and the run would name the folder)."""
+    path = Path(cfg.out_dir) / f"{cfg.model_name}.zip"
+    for taken in (path, path.with_suffix(".yaml")):
+        if taken.exists() and not taken.is_file():
+            raise ConfigError(
+                f"{str(taken)!r} exists and is not a file: the training writes its "
+                "policy there; remove it, or choose another --out or model_name"
+            )
+    return path
+
+
 def write_summary(out: Path, summary: dict[str, Any], interrupted: bool, model: Path) -> None:
     """``training_summary.json`` into ``out``; then, if Ctrl-C stopped the training,
     the ``KeyboardInterrupt`` that says where the policy was saved."""

@@ -47,6 +47,7 @@ from agents.goals.choice import (
 from agents.learning.budget import check_training_budget
 from agents.learning.config import TrainConfig, write_config
 from agents.learning.goal_env import GoalChoiceEnv
+from agents.learning.runs import model_path as checked_model_path
 from agents.learning.runs import write_summary
 from agents.learning.sb3.runs import (
     checkpoint_callbacks,
@@ -98,11 +99,11 @@ def train_goal_choice(cfg: TrainConfig) -> Path:
 
     from agents.learning.sb3.timing import StepTimer, time_shares
 
+    model_path = checked_model_path(cfg)
     check_goal_budget(cfg)
     torch.set_num_threads(cfg.torch_threads)
     out = Path(cfg.out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    model_path = out / f"{cfg.model_name}.zip"
     write_config(cfg, out / f"{cfg.model_name}.yaml")
     factory = GoalEnvFactory(
         dict(cfg.env_options),

@@ -73,3 +73,15 @@ def test_the_command_line_refuses_them_on_one_line(tmp_path, capsys, argv):
     assert exc.value.code == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and ("rollout buffer" in err or "torch_threads" in err)
+
+
+def test_a_folder_where_the_model_goes_is_refused_before_training(tmp_path, capsys):
+    out = tmp_path / "run"
+    (out / "ppo_active_slam.zip").mkdir(parents=True)
+    with pytest.raises(ConfigError, match=r"ppo_active_slam.zip.* is not a file"):
+        train(tiny_config(out))
+    assert sorted(p.name for p in out.iterdir()) == ["ppo_active_slam.zip"]  # nothing run
+    with pytest.raises(SystemExit) as exc:
+        main(["train", "--out", str(out), "--no-progress"])
+    assert exc.value.code == 2
+    assert "ppo_active_slam.zip" in capsys.readouterr().err
