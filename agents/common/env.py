@@ -36,3 +36,15 @@ def make_env(
         return gym.make(ENV_ID, render_mode=render_mode, **kwargs, **options)
     except TypeError as exc:
         raise ValueError(f"bad env options {options}: {exc}") from exc
+
+
+def check_env_options(env_options: dict[str, Any] | None, num_envs: int = 1) -> None:
+    """``ValueError`` naming the first bad option, as :func:`make_env` would raise it for
+    ``num_envs`` sub-envs (the option table, the budget), without building anything."""
+    from slam_env.envs.options import check_active_options
+
+    options = dict(env_options or {})
+    try:
+        check_active_options(num_envs, options)
+    except TypeError as exc:
+        raise ValueError(f"bad env options {options}: {exc}") from exc

@@ -27,6 +27,7 @@ another); ``experiments/choice_oracle.py`` measures it against ``frontier``.
 from __future__ import annotations
 
 import copy
+import dataclasses
 import math
 from collections.abc import Callable, Iterator
 from typing import Any, NamedTuple
@@ -55,6 +56,10 @@ WORLDS = ("belief", "hindsight")
 DRAWS = 20
 
 
+class NoBeliefWorld(RuntimeError):
+    """Not even the belief's mean could be laid out as a world (nothing was moved)."""
+
+
 def draw_belief_world(env: gym.Env, agent: GoalChoiceAgent, rng: np.random.Generator) -> bool:
     """Make ``env`` (a copy the agent may look ahead in) a world drawn from the belief:
     the robot and the mapped landmarks jointly from the filter's Gaussian, the
@@ -63,40 +68,113 @@ def draw_belief_world(env: gym.Env, agent: GoalChoiceAgent, rng: np.random.Gener
     world's clearance from walls and obstacles, its spacing between landmarks, clear
     of the robot), and the env's noise from a new generator. A draw that does not make
     a valid world (a post in an obstacle, the robot on a post) is drawn again, up to
-    :data:`DRAWS` times, then the belief's mean is used. False when no valid world was
-    found (then the true robot and landmarks stay, and only the noise is new)."""
+    :data:`DRAWS` times; then the world is the belief's mean, each landmark whose mean
+    will not do drawn as an unmapped one (False). Every landmark and the robot are
+    moved: nothing of the true world is left. ``NoBeliefWorld`` when not even that
+    can be laid out (then nothing is moved).
+
+    With known IDs, slot k of the filter is the landmark of ID ``state_to_id[k]``; a
+    filter that associates by itself owns its IDs (its slots are the tracks it
+    keeps), so slot k stands for the world's k-th landmark in the layout's order
+    (which one does not matter: the copy's sensor reports no IDs either), and tracks
+    beyond the world's landmark count are left out of the world."""
     base = env.unwrapped
-    cfg = base.config.world
     mean, cov, slot_ids = base.filter.belief_views()
-    mapped = {int(lid): 3 + 2 * k for k, lid in enumerate(slot_ids)}
-    unmapped = [lid for lid in base.layout.landmark_ids if lid not in mapped]
-    grid = agent._memory.grid
-    free = grid.clearance >= cfg.clearance + grid.resolution
-    unswept = agent._memory.on_planning_grid(agent._unswept())
-    areas = [np.argwhere(unswept & free), np.argwhere(free)]
-    keep_off = base.config.robot.radius + LANDMARK_POST_RADIUS
+    world_ids = list(base.layout.landmark_ids)
+    if base.filter.associates:
+        slots = dict(zip(world_ids, range(len(slot_ids)), strict=False))
+    else:
+        known = set(world_ids)
+        slots = {int(lid): k for k, lid in enumerate(slot_ids) if int(lid) in known}
+    mapped = {lid: 3 + 2 * k for lid, k in slots.items()}
+    unmapped = [lid for lid in world_ids if lid not in mapped]
+    places = _Places(base, agent)
     drawn = False
-    for draw in range(DRAWS + 1):
-        state = mean if draw == DRAWS else rng.multivariate_normal(mean, cov, method="eigh")
-        robot = state[:2]
+    for _ in range(DRAWS):
+        state = rng.multivariate_normal(mean, cov, method="eigh")
         placed = {lid: tuple(state[i : i + 2].tolist()) for lid, i in mapped.items()}
         for lid in unmapped:
-            point = _free_point(
-                areas,
-                grid,
-                rng,
-                [(robot, keep_off)] + [(q, cfg.landmark_spacing) for q in placed.values()],
-            )
-            if point is not None:
-                placed[lid] = point
-        try:
-            base.move_landmarks(placed, robot_pose=tuple(state[:3].tolist()))
-            drawn = True
-            break
-        except ValueError:  # unplaced landmarks stay, and may be in the way
-            continue
+            point = places.free_point(rng, state[:2], placed.values())
+            if point is None:
+                break
+            placed[lid] = point
+        else:
+            try:
+                base.move_landmarks(placed, robot_pose=tuple(state[:3].tolist()))
+                drawn = True
+                break
+            except ValueError:
+                continue
+    if not drawn:
+        robot, placed = places.mean_world(mean, mapped, unmapped, rng)
+        base.move_landmarks(placed, robot_pose=robot)
     base.np_random = np.random.default_rng(rng.integers(2**63))
     return drawn
+
+
+class _Places:
+    """Where the landmarks and the robot of a drawn world may go: the agent's free
+    (and unswept) planning cells, and the env's own check of a world."""
+
+    def __init__(self, base: Any, agent: GoalChoiceAgent) -> None:
+        cfg = base.config
+        self.layout = base.layout
+        self.grid = grid = agent._memory.grid
+        free = grid.clearance >= cfg.world.clearance + grid.resolution
+        unswept = agent._memory.on_planning_grid(agent._unswept())
+        self.areas = [np.argwhere(unswept & free), np.argwhere(free)]
+        self.robot_cells = np.argwhere(grid.clearance >= cfg.robot.radius + grid.resolution)
+        self.keep_off = cfg.robot.radius + LANDMARK_POST_RADIUS
+        self.spacing = cfg.world.landmark_spacing
+        self.robot_radius = cfg.robot.radius
+        self.wall_thickness = cfg.world.wall_thickness
+
+    def free_point(
+        self, rng: np.random.Generator, robot: Any, placed: Any
+    ) -> tuple[float, float] | None:
+        clear_of = [(robot, self.keep_off)] + [(q, self.spacing) for q in placed]
+        return _free_point(self.areas, self.grid, rng, clear_of)
+
+    def valid(self, robot: tuple, placed: dict[int, tuple[float, float]]) -> bool:
+        """Whether the robot at ``robot`` among the landmarks ``placed`` (ID → (x, y))
+        is a world the env takes (the check of its ``move_landmarks``)."""
+        world = dataclasses.replace(
+            self.layout,
+            landmark_ids=tuple(placed),
+            landmark_positions=tuple(placed.values()),
+            start_pose=robot,
+        )
+        try:
+            world.validate(self.robot_radius, wall_thickness=self.wall_thickness)
+        except ValueError:
+            return False
+        return True
+
+    def mean_world(
+        self, mean: np.ndarray, mapped: dict[int, int], unmapped: list[int], rng: Any
+    ) -> tuple[tuple, dict[int, tuple[float, float]]]:
+        """The robot and the landmarks at the belief's mean, laid out one by one: the
+        robot, where its mean will not do, at the nearest cell it fits in; a landmark
+        whose mean will not do, and each unmapped one, drawn as :meth:`free_point`
+        draws."""
+        robot = tuple(mean[:3].tolist())
+        if not self.valid(robot, {}) and len(self.robot_cells):
+            centres = np.array([self.grid.center(i, j) for i, j in self.robot_cells])
+            x, y = centres[int(np.argmin(np.hypot(*(centres - mean[:2]).T)))]
+            robot = (float(x), float(y), robot[2])
+        if not self.valid(robot, {}):
+            raise NoBeliefWorld("the robot fits nowhere near the belief's mean")
+        placed: dict[int, tuple[float, float]] = {}
+        wanted = [(lid, tuple(mean[i : i + 2].tolist())) for lid, i in mapped.items()]
+        for lid, point in wanted + [(lid, None) for lid in unmapped]:
+            for _ in range(DRAWS + 1):
+                if point is not None and self.valid(robot, {**placed, lid: point}):
+                    placed[lid] = point
+                    break
+                point = self.free_point(rng, robot[:2], placed.values())
+            else:
+                raise NoBeliefWorld(f"no place for landmark {lid} in the belief's mean world")
+        return robot, placed
 
 
 def _free_point(
@@ -217,7 +295,9 @@ class Lookahead:
         self.agent: GoalChoiceAgent | None = None
         self._holds = False  # the agent's own hold_goals, restored at each episode
         self.labels: list[Label] | None = [] if record else None
-        self.fallbacks = 0  # drawn worlds that kept the true robot and landmarks
+        self.worlds = 0  # worlds drawn from the belief for a try
+        self.fallbacks = 0  # of them, the belief's mean (no draw made a valid world)
+        self.skipped = 0  # choices left to the base: not even the mean made a world
 
     def attach(self, agent: GoalChoiceAgent) -> None:
         """Drive ``agent`` (whose policy this becomes)."""
@@ -240,24 +320,33 @@ class Lookahead:
             # decision switched it, and the robot stood among its goals.
             self.agent.hold_goals = True
             values = self._tried(ENDGAME, self.endgame, self._final_entropy)
-            return self._least(values.mean(axis=0), ENDGAME, own)
+            return own if values is None else self._least(values.mean(axis=0), ENDGAME, own)
         if own not in EXPLORING or mapped:
             return own
         costs = self._tried(
             EXPLORING, self.samples, lambda *game: steps_to_mapped(*game, need, self.horizon)
         )
+        if costs is None:
+            return own
         costs -= self.agent._steps
         if self.labels is not None:
             self.labels.append(Label(features.copy(), costs, own))
         return self._least(costs.mean(axis=0), EXPLORING, own)
 
+    def report(self) -> dict[str, int]:
+        """What the lookahead has drawn so far: ``worlds`` drawn from the belief for a
+        try, ``fallbacks`` of them laid out at the belief's mean, and the choices
+        ``skipped`` (left to the base) where not even that made a world."""
+        return {"worlds": self.worlds, "fallbacks": self.fallbacks, "skipped": self.skipped}
+
     def _final_entropy(self, *game: Any) -> float:
         return final_entropy(*game, self.horizon)
 
-    def _tried(self, choices: tuple[int, ...], worlds: int, value: Callable) -> np.ndarray:
+    def _tried(self, choices: tuple[int, ...], worlds: int, value: Callable) -> np.ndarray | None:
         """(tries, len(choices)): ``value(env, agent, choice, base)`` of each choice on
         copies of the env, the agent and the base (its memory as of this choice), in
-        ``worlds`` drawn worlds (the same ones for each choice), or the true one."""
+        ``worlds`` drawn worlds (the same ones for each choice), or the true one; None
+        when a world could not be drawn (the base chooses: never the true world)."""
         tries = worlds if self.world == "belief" else 1
         out = np.zeros((tries, len(choices)))
         for i in range(tries):
@@ -265,7 +354,12 @@ class Lookahead:
             for k, choice in enumerate(choices):
                 env, agent, base = copy.deepcopy((self.env, self.agent, self.base))
                 if self.world == "belief":
-                    drawn = draw_belief_world(env, agent, np.random.default_rng(seed))
+                    try:
+                        drawn = draw_belief_world(env, agent, np.random.default_rng(seed))
+                    except NoBeliefWorld:
+                        self.skipped += 1
+                        return None
+                    self.worlds += 1
                     self.fallbacks += not drawn
                 out[i, k] = value(env, agent, choice, base)
         return out

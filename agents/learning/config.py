@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import os
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -36,6 +37,12 @@ MAX_MEMORY_UNITS = 1024
 MAX_IMITATION_CHOICES = 1_000_000
 MAX_IMITATION_EPOCHS = 1000
 ACTIVATIONS = ("tanh", "relu")
+
+
+def max_torch_threads() -> int:
+    """The most ``torch_threads`` a training may ask for: the machine's CPUs (more only
+    make the threads wait for each other; a huge count exhausts the machine)."""
+    return os.cpu_count() or 1
 
 
 class ConfigError(ValueError):
@@ -223,6 +230,9 @@ def validate_config(cfg: TrainConfig) -> TrainConfig:
     for name in ("total_timesteps", "n_envs", "torch_threads", "eval_episodes"):
         v = getattr(cfg, name)
         _check(_is_int(v) and v >= 1, name, v, "an int >= 1")
+    cpus = max_torch_threads()
+    expected = f"an int in [1, {cpus}] (this machine's CPUs)"
+    _check(cfg.torch_threads <= cpus, "torch_threads", cfg.torch_threads, expected)
     for name in ("seed", "eval_seed", "checkpoint_freq", "eval_freq", "verbose"):
         v = getattr(cfg, name)
         _check(_is_int(v) and v >= 0, name, v, "an int >= 0")
@@ -304,7 +314,27 @@ def validate_config(cfg: TrainConfig) -> TrainConfig:
     )
     _check(isinstance(cfg.ppo, PPOParams), "ppo", cfg.ppo, "a mapping of PPO hyperparameters")
     _validate_ppo(cfg.ppo)
+    if cfg.worlds is not None:
+        _validate_world_settings(cfg)
     return cfg
+
+
+def _validate_world_settings(cfg: TrainConfig) -> None:
+    """Every setting ``worlds`` may draw runs with ``env_options`` (on a native vector
+    env of a group's sub-envs, or a single env for goals), or a :class:`ConfigError`."""
+    from agents.common.env import check_env_options
+    from agents.learning.worlds import WorldDistribution
+
+    native = cfg.decisions == "actions"
+    group = cfg.n_envs // (cfg.world_groups or cfg.n_envs) if native else 1
+    try:
+        check_env_options(cfg.env_options, group)
+    except ValueError as exc:
+        raise ConfigError(f"config key 'env_options': {exc}") from None
+    try:
+        WorldDistribution.from_mapping(cfg.worlds).check(cfg.env_options, group)
+    except ValueError as exc:
+        raise ConfigError(str(exc)) from None
 
 
 def _from_mapping(cls: type, data: Mapping[str, Any], where: str) -> dict[str, Any]:

@@ -12,6 +12,7 @@ from typing import Any
 import gymnasium as gym
 
 from agents.common.env import make_env
+from agents.learning.budget import check_training_budget
 from agents.learning.config import ConfigError, TrainConfig
 
 
@@ -25,6 +26,7 @@ def check_train_env(cfg: TrainConfig) -> str:
         space = env.observation_space
     finally:
         env.close()
+    check_training_budget(cfg, space, env.action_space)
     local = cfg.env_options.get("observation") == "local"
     if cfg.worlds is not None and not local:
         raise ConfigError(
@@ -37,6 +39,20 @@ def check_train_env(cfg: TrainConfig) -> str:
             "the full covariance: set env_options.observation to egocentric or local"
         )
     return "MultiInputPolicy" if local else "MlpPolicy"
+
+
+def model_path(cfg: TrainConfig) -> Path:
+    """Where the policy is saved, ``OUT/<model_name>.zip``; ``ConfigError`` before
+    anything runs where that or its config's path is taken by something not a file
+    (SB3 would save beside a folder there, and the run would name the folder)."""
+    path = Path(cfg.out_dir) / f"{cfg.model_name}.zip"
+    for taken in (path, path.with_suffix(".yaml")):
+        if taken.exists() and not taken.is_file():
+            raise ConfigError(
+                f"{str(taken)!r} exists and is not a file: the training writes its "
+                "policy there; remove it, or choose another --out or model_name"
+            )
+    return path
 
 
 def write_summary(out: Path, summary: dict[str, Any], interrupted: bool, model: Path) -> None:

@@ -5,6 +5,7 @@ vector env."""
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, fields, replace
@@ -12,7 +13,7 @@ from typing import Any
 
 import numpy as np
 
-from slam_env.config import PRESETS
+from slam_env.config import PRESETS, make_config
 
 # Draws of a setting before giving up on a distribution that cannot lay out its worlds.
 MAX_DRAWS = 20
@@ -84,23 +85,54 @@ class WorldDistribution:
         k = max(1, math.ceil(min(max(share, 0.0), 1.0) * len(sizes)))
         return self if k == len(sizes) else replace(self, arena_sizes=tuple(sizes[:k]))
 
+    def _drawn_fields(self) -> dict[str, tuple]:
+        """The fields that are drawn and their choices, in :data:`_ENV_KEYS`' order."""
+        return {name: getattr(self, name) for name in _ENV_KEYS if getattr(self, name)}
+
     def sample(self, rng: np.random.Generator) -> dict[str, Any]:
         """One setting's env options (flat names), drawn from ``rng``."""
+        picks = {
+            name: values[int(rng.integers(len(values)))]
+            for name, values in self._drawn_fields().items()
+        }
+        return _setting(picks)
 
-        def pick(values: tuple) -> Any:
-            return values[int(rng.integers(len(values)))]
+    def check(self, env_options: Mapping[str, Any] | None = None, num_envs: int = 1) -> None:
+        """``ValueError`` naming the field and the value, or the setting, that cannot run
+        with ``env_options`` on ``num_envs`` sub-envs, so that no setting is dropped
+        while training: each value alone against the option table, then, against the
+        budget too, every preset with each other field at its smallest and its largest
+        value (every figure of the budget grows or shrinks with each of them), before
+        anything is built."""
+        from agents.common.env import check_env_options
 
-        options: dict[str, Any] = {"preset": pick(self.presets)}
-        if self.arena_sizes is not None:
-            side = pick(self.arena_sizes)
-            options["width"] = options["height"] = side
-        for name, key in (
-            ("landmark_counts", "n_landmarks"),
-            ("obstacle_counts", "n_obstacles"),
-            ("sensor_ranges", "max_range"),
-            ("fovs", "fov"),
-        ):
-            values = getattr(self, name)
-            if values is not None:
-                options[key] = pick(values)
-        return options
+        choices = self._drawn_fields()
+        for name, values in choices.items():
+            for value in values:
+                try:
+                    make_config(**_setting({name: value}))
+                except (TypeError, ValueError) as exc:
+                    raise ValueError(f"worlds.{name} value {value!r} cannot run: {exc}") from None
+        ends = [v if n == "presets" else sorted({min(v), max(v)}) for n, v in choices.items()]
+        for combination in itertools.product(*ends):
+            picks = dict(zip(choices, combination, strict=True))
+            try:
+                check_env_options({**(env_options or {}), **_setting(picks)}, num_envs)
+            except ValueError as exc:
+                raise ValueError(f"worlds setting {picks} cannot run: {exc}") from None
+
+
+#: Each field's env options.
+_ENV_KEYS: dict[str, tuple[str, ...]] = {
+    "presets": ("preset",),
+    "arena_sizes": ("width", "height"),  # square arenas
+    "landmark_counts": ("n_landmarks",),
+    "obstacle_counts": ("n_obstacles",),
+    "sensor_ranges": ("max_range",),
+    "fovs": ("fov",),
+}
+
+
+def _setting(picks: Mapping[str, Any]) -> dict[str, Any]:
+    """The env options of the fields' ``picks`` (field name → value)."""
+    return {key: value for name, value in picks.items() for key in _ENV_KEYS[name]}

@@ -96,12 +96,14 @@ class InfoGainAgent(HeuristicAgent):
     down the frontier distance field (below), simulated in closed loop. A candidate's
     score, in nats, is the sum of:
 
-    * **belief information**: on ``filter.copy()``, the EKF prediction with the
-      odometry the motion would produce, then, at the ``observe_at`` steps, the update
-      with the expected observations of the known landmarks in range, FOV and line of
-      sight (zero innovation: only the covariance changes); the score is the entropy
-      removed, ½·(log det P_now − log det P_after). Turning costs heading certainty,
-      and seeing well-known landmarks closes loops, both through this term;
+    * **belief information**: on ``filter.copy_with_known_ids()`` (the landmarks of
+      the predicted observations are the ones picked, whichever association the
+      filter runs), the EKF prediction with the odometry the motion would produce,
+      then, at the ``observe_at`` steps, the update with the expected observations
+      of the known landmarks in range, FOV and line of sight (zero innovation: only
+      the covariance changes); the score is the entropy removed,
+      ½·(log det P_now − log det P_after). Turning costs heading certainty, and
+      seeing well-known landmarks closes loops, both through this term;
     * **discovery**: the coverage-grid area the sensor would sweep for the first time
       (the footprint at the end of the horizon) × the expected landmark density in the
       unswept area × the nats a discovered landmark is worth (``discovery_nats``, by
@@ -315,7 +317,9 @@ class InfoGainAgent(HeuristicAgent):
             if not feasible[k] and feasible.any():
                 continue  # a colliding primitive never wins: skip the costly terms
             path = paths[k]
-            g = f.copy()
+            # The observations predicted are of the slots picked here: the copy takes
+            # them as given, whether or not the filter associates by itself.
+            g = f.copy_with_known_ids()
             for step in range(1, p.horizon + 1):
                 p0, p1 = path[step - 1], path[step]
                 if model == "odometry":

@@ -151,8 +151,9 @@ class EKFSLAM(BeliefReads):
         ``belief_views()`` and ``belief_arrays()``: read-only views for a per-step
         reader. Invalid input raises ``ValueError``/``TypeError`` naming what was
         wrong, a numerical breakdown ``FloatingPointError``; either way the filter is
-        left exactly as it was. ``copy()`` is an independent deep copy; instances
-        pickle.
+        left exactly as it was. ``copy()`` is an independent deep copy
+        (``copy_with_known_ids()`` one that takes the IDs it is given, for planners);
+        instances pickle.
     """
 
     def __init__(
@@ -400,6 +401,17 @@ class EKFSLAM(BeliefReads):
         return new
 
     __copy__ = copy
+
+    def copy_with_known_ids(self) -> EKFSLAM:
+        """An independent copy that takes each observation's landmark from the caller
+        (``data_association="known"``), by the IDs of :attr:`state_to_id`: for a planner
+        that predicts the observations of landmarks it picks, whichever association this
+        filter runs (one that associates owns its IDs: a landmark's ID is its slot)."""
+        new = self.copy()
+        if self._associates:
+            new._config = self._config._replace(data_association="known", wide_pairing_scans=1)
+            new._setup()
+        return new
 
     def _view_over(self, storage: tuple[np.ndarray, ...]) -> EKFSLAM:
         """A filter with this one's configuration over ``storage``: the state arrays of

@@ -21,6 +21,7 @@ __all__ = [
     "active_config",
     "active_core",
     "active_cores",
+    "check_active_options",
     "options_signature",
     "raw_core",
     "raw_cores",
@@ -61,12 +62,22 @@ def active_cores(sizes: Sequence[int], options: Mapping[str, Any], owner: str) -
     """An active-SLAM core of each size of ``sizes`` (the chunks of one vector env), all
     with ``options``, checked first for all of their sub-envs together (an unknown name
     as Python refuses it for the function ``owner``)."""
+    active, config = check_active_options(sum(sizes), options, owner)
+    return [ActiveCore(config, n, active) for n in sizes]
+
+
+def check_active_options(
+    num_envs: int, options: Mapping[str, Any], owner: str = "ActiveSLAMEnv.__init__"
+) -> tuple[ActiveSLAMOptions, EnvConfig]:
+    """``options`` of ``num_envs`` sub-envs of ``slam_env/ActiveSLAM-v0`` checked as
+    making the env checks them (the option table, the budget), nothing built: its own
+    options and the world's config. ``TypeError`` for an unknown name (as Python
+    refuses it for the function ``owner``), ``ValueError`` for a bad value."""
     env_options = dict(options)
     own = {k: env_options.pop(k) for k in ActiveSLAMOptions.argument_names() if k in options}
     active = ActiveSLAMOptions(**own)
     check_option_names(env_options, ACTIVE_ARGUMENTS, owner)
-    config = active_config(active, env_options, sum(sizes))
-    return [ActiveCore(config, n, active) for n in sizes]
+    return active, active_config(active, env_options, num_envs)
 
 
 def options_signature(init: Any, table: type) -> inspect.Signature:

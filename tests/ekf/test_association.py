@@ -504,3 +504,34 @@ def test_a_tentative_sighting_is_confirmed_exactly_within_the_match_gate():
         np.testing.assert_allclose(hm.inverse(f.pose, z2)[0], moved, atol=1e-9)
         result = f.update(z2)
         assert result.status.tolist() == ([INITIALISED] if confirmed else [TENTATIVE])
+
+
+@pytest.mark.parametrize("association", ASSOCIATING)
+def test_a_copy_with_known_ids_corrects_the_slots_it_is_given(association):
+    """What a planner predicting observations of chosen landmarks needs: the copy takes
+    the slots' IDs (state_to_id) and corrects those landmarks as the association would
+    on the same observations; the original keeps its own association."""
+    filters = {"a": make(association)}
+    for _ in drive(filters, "range_bearing", 0.01, seed=3, steps=20):
+        pass
+    f = filters["a"]
+    ids = f.state_to_id[:2]
+    z = MEASUREMENT_MODELS["range_bearing"].h(f.pose, f.landmark_means()[:2])
+    known = f.copy_with_known_ids()
+    assert known.data_association == "known" and not known.associates
+    assert f.data_association == association
+    result = known.update(z, ids)
+    np.testing.assert_array_equal(result.ids, ids)
+    twin = f.copy()
+    assert twin.update(z).ids.tolist() == result.ids.tolist()  # the same slots, by itself
+    np.testing.assert_allclose(known.cov, twin.cov, rtol=1e-9, atol=1e-12)
+    np.testing.assert_array_equal(f.mean, filters["a"].mean)  # the original untouched
+
+
+def test_a_copy_with_known_ids_of_a_known_filter_is_a_copy():
+    f = make("known")
+    f.update(np.array([[2.0, 0.3]]), [5])
+    g = f.copy_with_known_ids()
+    g.update(np.array([[2.0, 0.3]]), [5])
+    assert g.data_association == "known" and g.state_to_id.tolist() == [5]
+    assert f.cov[3, 3] > g.cov[3, 3]  # the original untouched

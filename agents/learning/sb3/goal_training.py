@@ -44,8 +44,10 @@ from agents.goals.choice import (
     choice_space,
     feature_space,
 )
+from agents.learning.budget import check_training_budget
 from agents.learning.config import TrainConfig, write_config
 from agents.learning.goal_env import GoalChoiceEnv
+from agents.learning.runs import model_path as checked_model_path
 from agents.learning.runs import write_summary
 from agents.learning.sb3.runs import (
     checkpoint_callbacks,
@@ -97,10 +99,11 @@ def train_goal_choice(cfg: TrainConfig) -> Path:
 
     from agents.learning.sb3.timing import StepTimer, time_shares
 
+    model_path = checked_model_path(cfg)
+    check_goal_budget(cfg)
     torch.set_num_threads(cfg.torch_threads)
     out = Path(cfg.out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    model_path = out / f"{cfg.model_name}.zip"
     write_config(cfg, out / f"{cfg.model_name}.yaml")
     factory = GoalEnvFactory(
         dict(cfg.env_options),
@@ -169,6 +172,18 @@ def train_goal_choice(cfg: TrainConfig) -> Path:
     finally:
         close_envs(interrupted, train_env, eval_env)
     return model_path
+
+
+def check_goal_budget(cfg: TrainConfig) -> None:
+    """The training's budget (:mod:`agents.learning.budget`) on the policy's input: the
+    features, times the frames a frame stack holds; a recurrent policy's buffer keeps
+    its LSTMs' states (h and c, actor and critic) each step too."""
+    features = feature_space()
+    if cfg.memory == "frame_stack":
+        low = np.tile(features.low, cfg.memory_frames)
+        features = gym.spaces.Box(low, np.tile(features.high, cfg.memory_frames))
+    extra = 4 * cfg.memory_units if cfg.memory == "recurrent" else 0
+    check_training_budget(cfg, features, choice_space(), extra)
 
 
 def with_memory(venv: Any, cfg: TrainConfig) -> Any:

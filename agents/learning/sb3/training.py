@@ -33,6 +33,7 @@ from typing import Any
 from agents.learning.config import TrainConfig, as_train_config, write_config
 from agents.learning.metrics import BEST_MODEL_CRITERION
 from agents.learning.runs import check_train_env, finite, finite_map, write_summary
+from agents.learning.runs import model_path as checked_model_path
 from agents.learning.sb3.goal_training import train_goal_choice
 from agents.learning.sb3.runs import (
     close_envs,
@@ -53,11 +54,11 @@ def train(config: TrainConfig | Mapping[str, Any] | str | Path | None = None) ->
     cfg = as_train_config(config)
     if cfg.decisions == "goals":
         return train_goal_choice(cfg)
-    torch.set_num_threads(cfg.torch_threads)
+    model_path = checked_model_path(cfg)
     policy = check_train_env(cfg)
+    torch.set_num_threads(cfg.torch_threads)
     out = Path(cfg.out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    model_path = out / f"{cfg.model_name}.zip"
     write_config(cfg, out / f"{cfg.model_name}.yaml")
 
     train_env = StepTimer(make_train_vec_env(cfg, cfg.n_envs, cfg.seed))

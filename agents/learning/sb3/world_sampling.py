@@ -16,7 +16,8 @@ limit is the group's, not the env's); then the group draws its next setting, bui
 (or takes from a small cache) the vector env of that setting and resets it with seeds
 drawn from the group's own generator: a run is the same for the same seed. A setting
 whose world cannot be laid out (a random world too cluttered for its arena) is drawn
-again.
+again; a setting that cannot run at all is refused up front
+(:meth:`~agents.learning.worlds.WorldDistribution.check`).
 """
 
 from __future__ import annotations
@@ -75,6 +76,7 @@ class WorldSamplingVecEnv(VecEnv):
         groups = n_envs if groups is None else groups
         if groups < 1 or n_envs % groups:
             raise ValueError(f"n_envs ({n_envs}) must be a multiple of groups ({groups})")
+        worlds.check(env_options, n_envs // groups)  # no setting is dropped while training
         self.env_id = env_id
         self.worlds = worlds
         self.env_options = dict(env_options or {})
@@ -102,13 +104,13 @@ class WorldSamplingVecEnv(VecEnv):
         rng = self._rngs[group]
         for _ in range(MAX_DRAWS):
             setting = self.worlds.sample(rng)
+            env = self._env_for(group, setting)  # every setting runs (checked up front)
+            env.seed(int(rng.integers(2**31)))
             try:
-                env = self._env_for(group, setting)
-                env.seed(int(rng.integers(2**31)))
                 first = env.reset()
                 break
             except ValueError:
-                continue  # a preset that cannot be laid out in this arena: draw again
+                continue  # a world that cannot be laid out (too cluttered): draw again
         else:
             raise ValueError(f"worlds: no layable setting in {MAX_DRAWS} draws from {self.worlds}")
         if group < len(self.settings):

@@ -304,3 +304,24 @@ def test_registry_reports_a_missing_heuristic(monkeypatch):
     with pytest.raises(ValueError, match="agent 'frontier' is not available"):
         make_agent("frontier", env)
     env.close()
+
+
+@pytest.mark.parametrize("association", ["nearest_neighbor", "jcbb"])
+def test_cli_evaluate_runs_infogain_where_the_filter_associates(association, tmp_path):
+    argv = ["evaluate", "--agents", "random,infogain", "--episodes", "1", "--max-steps", "8"]
+    argv += ["--out", str(tmp_path), "--no-progress", *SMALL_ARGS]
+    assert main([*argv, "--env-option", f"data_association={association}"]) == 0
+    with open(tmp_path / "episodes.csv", newline="") as fh:
+        assert [r["agent"] for r in csv.DictReader(fh)] == ["random", "infogain"]
+
+
+def test_a_world_setting_that_cannot_run_is_a_usage_error(tmp_path, capsys):
+    config = tmp_path / "worlds.yaml"
+    worlds = {"fovs": [2.0944, 360]}
+    config.write_text(yaml.safe_dump({"env_options": {"observation": "local"}, "worlds": worlds}))
+    with pytest.raises(SystemExit) as exc:
+        main(["train", "--config", str(config), "--out", str(tmp_path / "run")])
+    assert exc.value.code == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "worlds.fovs value 360.0 cannot run" in err
+    assert not (tmp_path / "run").exists()

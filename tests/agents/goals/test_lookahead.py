@@ -7,6 +7,7 @@ reproducible and runs on every setting of the suite."""
 from __future__ import annotations
 
 import copy
+import dataclasses
 import pickle
 
 import numpy as np
@@ -213,26 +214,43 @@ class Unlikely:
         return getattr(self._rng, name)
 
 
-def test_a_world_that_cannot_be_drawn_takes_the_mean_then_keeps_the_truth(monkeypatch):
+def test_a_world_that_cannot_be_drawn_takes_the_mean_never_the_truth(monkeypatch):
     env, agent = mapped_a_few()
-    mean = env.unwrapped.filter.mean
+    base = env.unwrapped
+    mean = base.filter.mean
+    truth = np.array(base.layout.landmark_positions)
     w_env, w_agent = copy.deepcopy((env, agent))
     rng = Unlikely(1)
-    assert draw_belief_world(w_env, w_agent, rng)  # the mean, after DRAWS draws
+    assert not draw_belief_world(w_env, w_agent, rng)  # the mean, after DRAWS draws
     assert rng.joint_draws == DRAWS
     assert np.allclose(w_env.unwrapped.world.pose, mean[:3])
-
-    def refuse(self, positions, robot_pose=None):
-        raise ValueError("no")
-
-    w_env, w_agent = copy.deepcopy((env, agent))
-    monkeypatch.setattr(type(w_env.unwrapped), "move_landmarks", refuse)
-    assert not draw_belief_world(w_env, w_agent, np.random.default_rng(1))
-    assert w_env.unwrapped.world.pose == env.unwrapped.world.pose
-    policy = Lookahead(w_env, RULE, samples=1)
-    policy.attach(w_agent)
+    after = np.array(w_env.unwrapped.layout.landmark_positions)
+    assert not (after == truth).all(axis=1).any()  # every landmark moved
+    mapped = base.filter.belief_views()[2].tolist()
+    where = dict(zip(base.layout.landmark_ids, after.tolist(), strict=True))
+    np.testing.assert_allclose([where[lid] for lid in mapped], mean[3:].reshape(-1, 2))
+    policy = Lookahead(env, RULE, samples=1)
+    policy.attach(agent)
+    draw = lookahead.draw_belief_world
+    monkeypatch.setattr(lookahead, "draw_belief_world", lambda e, a, r: draw(e, a, Unlikely(1)))
     policy._tried(EXPLORING[:1], 2, lambda *game: 0.0)
-    assert policy.fallbacks == 2  # counted, one per drawn world
+    assert policy.report() == {"worlds": 2, "fallbacks": 2, "skipped": 0}  # one a world
+
+
+def test_a_mean_that_cannot_be_laid_out_is_left_to_the_base_never_the_truth(monkeypatch):
+    env, agent = mapped_a_few()
+    rule = lambda features: EXPLORING[0]  # noqa: E731 (an exploring choice: looked ahead)
+    policy = Lookahead(env, rule, samples=2)
+    policy.attach(agent)
+    while (action := agent.begin_step()) is not None:
+        env.step(action)
+    monkeypatch.setattr(lookahead, "DRAWS", 0)  # straight to the mean ...
+    monkeypatch.setattr(lookahead._Places, "valid", lambda *args: False)  # ... refused
+    played = []
+    monkeypatch.setattr(lookahead, "steps_to_mapped", lambda *a: played.append(a) or 0.0)
+    assert policy(agent.features()) == EXPLORING[0]
+    assert not played  # nothing was tried, in no world
+    assert policy.report() == {"worlds": 0, "fallbacks": 0, "skipped": 1}
 
 
 @pytest.mark.parametrize("choice", ENDGAME)
@@ -336,3 +354,65 @@ def test_the_lookahead_agent_runs_on_every_setting_of_the_suite():
         record = run_episode(env, agent, 0)
         assert len(record.entropy) == 13
         env.close()
+
+
+def ids_10_to_17(data_association):
+    """The small world with 8 landmarks whose IDs are 10-17, and a rule-driven agent
+    at its first choice after 40 steps in it (some landmarks mapped)."""
+    env = make_env({**SMALL, "n_landmarks": 8}, 250)
+    env.reset(seed=5)
+    layout = env.unwrapped.layout
+    layout = dataclasses.replace(layout, landmark_ids=tuple(range(10, 18)))
+    env = make_env({"layout": layout, "data_association": data_association}, 250)
+    env.reset(seed=5)
+    agent = GoalChoiceAgent(env, RULE, seed=5)
+    for step in range(40):
+        env.step(agent.predict(None, episode_start=step == 0)[0])
+    while (action := agent.begin_step()) is not None:
+        env.step(action)
+    assert 0 < env.unwrapped.filter.n_landmarks < 8
+    return env, agent
+
+
+@pytest.mark.parametrize("association", ["known", "jcbb"])
+def test_worlds_are_drawn_whatever_the_landmark_ids_and_the_association(association):
+    env, agent = ids_10_to_17(association)
+    policy = Lookahead(env, RULE, samples=1)
+    policy.attach(agent)
+    policy._tried(EXPLORING, 10, lambda *game: 0.0)
+    assert policy.report() == {"worlds": 10 * len(EXPLORING), "fallbacks": 0, "skipped": 0}
+
+
+def far_from_the_truth(env, rng, distance=2.0):
+    """Move every true landmark of ``env`` to a valid point ``distance`` m or more from
+    where it was (one at a time, each move checked by the env)."""
+    base = env.unwrapped
+    width, height = base.arena_size
+    for lid, was in zip(base.layout.landmark_ids, base.layout.landmark_positions, strict=True):
+        for _ in range(2000):
+            point = rng.uniform((0.0, 0.0), (width, height))
+            if np.hypot(*(point - was)) < distance:
+                continue
+            try:
+                base.move_landmarks({lid: point})
+                break
+            except ValueError:
+                continue
+        else:
+            raise AssertionError(f"landmark {lid} found no other place")
+
+
+@pytest.mark.parametrize("association", ["known", "jcbb"])
+def test_the_lookahead_never_reads_the_true_landmarks(association):
+    env, agent = ids_10_to_17(association)
+    moved_env, moved_agent = copy.deepcopy((env, agent))
+    far_from_the_truth(moved_env, np.random.default_rng(0))
+    assert moved_env.unwrapped.layout.landmark_positions != env.unwrapped.layout.landmark_positions
+    need = landmarks_needed(8, MAPPED_SHARE)
+    costs = []
+    for e, a in ((env, agent), (moved_env, moved_agent)):
+        policy = Lookahead(e, RULE, samples=2, horizon=40, seed=3)
+        policy.attach(a)
+        tried = policy._tried(EXPLORING, 2, lambda *game: steps_to_mapped(*game, need, 40))
+        costs.append(tried)
+    np.testing.assert_array_equal(*costs)

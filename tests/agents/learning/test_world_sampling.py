@@ -25,7 +25,7 @@ WORLDS = {
     "landmark_counts": [4, 7],
     "obstacle_counts": [0, 2],
     "sensor_ranges": [2.0, 4.0],
-    "fovs": [2.0, 6.2832],
+    "fovs": [2.0, 6.28],
 }
 
 
@@ -45,7 +45,7 @@ def test_the_distribution_draws_every_field_from_its_choices():
     assert {d["n_landmarks"] for d in draws} == {4, 7}
     assert {d["n_obstacles"] for d in draws} == {0, 2}
     assert {d["max_range"] for d in draws} == {2.0, 4.0}
-    assert {d["fov"] for d in draws} == {2.0, 6.2832}
+    assert {d["fov"] for d in draws} == {2.0, 6.28}
     assert WorldDistribution().sample(rng) == {"preset": "random"}
 
 
@@ -64,6 +64,50 @@ def test_the_distribution_draws_every_field_from_its_choices():
 def test_bad_distributions_are_refused(data, match):
     with pytest.raises(ValueError, match=match):
         WorldDistribution.from_mapping(data)
+
+
+LOCAL = {"observation": "local"}
+
+
+@pytest.mark.parametrize(
+    ("worlds", "match"),
+    [
+        ({"fovs": [2.0944, 360]}, r"worlds.fovs value 360.0 cannot run: .*fov must be in"),
+        ({"fovs": [2.0, 6.2832]}, r"worlds.fovs value 6.2832 "),  # just above 2π
+        ({"arena_sizes": [8, 1000]}, r"worlds setting .*'arena_sizes': 1000.* arena cells"),
+        ({"landmark_counts": [5, 1e9]}, r"worlds.landmark_counts must hold ints"),
+        # Each alone can run (500 landmarks fit a 90 m arena), not the two together.
+        (
+            {"arena_sizes": [8, 90], "landmark_counts": [10, 500]},
+            r"worlds setting .*'arena_sizes': 8.0, 'landmark_counts': 500.*n_landmarks = 500",
+        ),
+    ],
+)
+def test_settings_that_cannot_run_are_refused_up_front(worlds, match):
+    with pytest.raises(ConfigError, match=match):
+        config_from_dict({"worlds": worlds, "env_options": LOCAL})
+    if "must hold" not in match:
+        with pytest.raises(ValueError, match=match):
+            WorldSamplingVecEnv(ACTIVE, 2, WorldDistribution.from_mapping(worlds), LOCAL)
+
+
+def test_every_setting_of_a_runnable_distribution_is_drawn():
+    """A distribution that passes its checks draws each of its values (none is dropped
+    as if it could not be laid out)."""
+    worlds = {"fovs": [2.0944, 6.28], "arena_sizes": [8.0, 12.0]}
+    config_from_dict({"worlds": worlds, "env_options": LOCAL})
+    dist = WorldDistribution.from_mapping(worlds)
+    venv = WorldSamplingVecEnv(ACTIVE, 8, dist, LOCAL, seed=0, max_episode_steps=2)
+    try:
+        venv.reset()
+        drawn = {(s["fov"], s["width"]) for s in venv.settings}
+        for _ in range(8):
+            venv.step(np.zeros((8, 2), np.float32))
+            drawn |= {(s["fov"], s["width"]) for s in venv.settings}
+        assert venv.episodes_drawn == 8 * 5
+        assert drawn == {(f, a) for f in worlds["fovs"] for a in worlds["arena_sizes"]}
+    finally:
+        venv.close()
 
 
 def test_each_group_draws_a_new_setting_when_its_episodes_end():

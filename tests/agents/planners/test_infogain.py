@@ -125,3 +125,23 @@ def test_rejects_what_it_cannot_drive_and_bad_parameters():
         InfoGainParams(horizon=4, observe_at=(6,))
     with pytest.raises(ValueError, match="primitives"):
         InfoGainParams(primitives=((2.0, 0.0),))
+
+
+@pytest.mark.parametrize("association", ["nearest_neighbor", "jcbb"])
+def test_plans_on_a_filter_that_associates_by_itself(association):
+    """With hidden correspondences the predicted observations name the filter's own
+    slots: the agent runs, and a landmark in view is worth information."""
+    env = gym.make(ENV_ID, data_association=association, max_episode_steps=30)
+    agent = InfoGainAgent(env, seed=0)
+    obs, _ = env.reset(seed=1)
+    infos = []
+    for step in range(30):
+        action, _ = agent.predict(obs, episode_start=step == 0)
+        assert env.action_space.contains(action)
+        obs, _, terminated, truncated, _ = env.step(action)
+        if agent.last_scores is not None and env.unwrapped.filter.n_landmarks:
+            infos.append(agent.last_scores[:, INFO].max())
+        if terminated or truncated:
+            break
+    assert env.unwrapped.filter.n_landmarks > 0
+    assert max(infos) > 0.0
