@@ -10,6 +10,12 @@ an edit to any of them starts a fresh cache rather than running stale code. Ever
 compiled function of ``slam_env`` lives under ``slam_env/kernels``, so that tree is the
 one hashed; a kernel defined elsewhere (a planner's, in ``agents``) gets a cache of its
 own, named by a hash of its own folder.
+
+Inside that directory each source folder's entries sit under its path relative to the
+tree (:class:`TreeCacheLocator`), not under a hash of its absolute path as numba's own
+locator puts them, so the cache stays valid when the tree moves: a wheel's build
+compiles the kernels into the package (``python -m slam_env.warm_kernels``), and the
+installed package finds them.
 """
 
 from __future__ import annotations
@@ -24,10 +30,12 @@ from pathlib import Path
 from typing import Any, TypeVar
 
 import numba
+from numba.core.caching import UserProvidedCacheLocator
 
 __all__ = [
     "KERNELS",
     "KernelCacheWarning",
+    "TreeCacheLocator",
     "borrowing_kernel",
     "cache_directory",
     "inline_kernel",
@@ -112,16 +120,36 @@ def _cache_of(fn: Callable) -> str | None:
     return _CACHES[tree]
 
 
+class TreeCacheLocator(UserProvidedCacheLocator):
+    """numba's locator for a user cache directory, with each source folder's entries
+    under its path relative to the kernels' tree (``ekf``, ``base``, …) instead of a
+    hash of its absolute path: the same entries wherever the tree is installed."""
+
+    @classmethod
+    def get_suitable_cache_subpath(cls, py_file: str) -> str:
+        folder = Path(py_file).resolve().parent
+        relative = folder.relative_to(tree_of(py_file)).as_posix()
+        return "tree" if relative == "." else relative.replace("/", "_")
+
+
+_LOCATOR = f"{__name__}.{TreeCacheLocator.__name__}"
+
+
 @contextlib.contextmanager
 def _caching_in(cache: str) -> Iterator[None]:
-    """numba's user cache directory set to ``cache`` while a kernel is declared (numba
-    reads it then), and put back afterwards, for other libraries' caches."""
-    before = numba.config.CACHE_DIR
+    """numba's user cache directory set to ``cache``, and its locator to
+    :class:`TreeCacheLocator`, while a kernel is declared (numba reads both then), and
+    put back afterwards, for other libraries' caches."""
+    before = numba.config.CACHE_DIR, getattr(numba.config, "CACHE_LOCATOR_CLASSES", None)
     numba.config.CACHE_DIR = cache
+    if before[1] is not None:  # numba >= 0.62; older ones keep their own locator
+        numba.config.CACHE_LOCATOR_CLASSES = _LOCATOR
     try:
         yield
     finally:
-        numba.config.CACHE_DIR = before
+        numba.config.CACHE_DIR = before[0]
+        if before[1] is not None:
+            numba.config.CACHE_LOCATOR_CLASSES = before[1]
 
 
 def kernel(fn: F) -> F:
