@@ -4,13 +4,16 @@ fresh process, cold (an empty numba cache directory: every kernel compiled) and 
 vector envs, beside CartPole-v1's in the same run.
 
     .venv/bin/python -m benchmarks.bench_startup [--repeats 3] [--vector 8]
-                     [--ids Landmarks ActiveSLAM] [--no-cold]
+                     [--ids Landmarks ActiveSLAM] [--no-cold] [--installed PYTHON]
 
 Each measurement is a child process (``python -c``), so that nothing is imported or
 compiled before it starts; cold children get a directory of their own as
 ``NUMBA_CACHE_DIR``, which the warm children then reuse. Wall and CPU seconds are the
 child's own clocks; the kernels and specialisations it compiled (or loaded) are read
-off numba's dispatchers. The figures that matter are the ratios against CartPole-v1,
+off numba's dispatchers. ``--installed PYTHON`` measures a fresh ``pip install`` instead
+(PYTHON: the interpreter of a new virtual environment holding the wheel): its children
+use the package's own cache, which the wheel's build filled, and the first of them is
+the user's first step. The figures that matter are the ratios against CartPole-v1,
 and the medians of ``--repeats`` children.
 """
 
@@ -67,15 +70,21 @@ print(json.dumps({
 """
 
 
-def child(env_id: str, vector: int, cache: str) -> dict:
-    env = dict(os.environ, NUMBA_CACHE_DIR=cache, SDL_VIDEODRIVER="dummy")
+def child(env_id: str, vector: int, cache: str | None, python: str = sys.executable) -> dict:
+    """One child's figures; ``cache`` None: the package's own cache directory."""
+    env = dict(os.environ, SDL_VIDEODRIVER="dummy")
+    env.pop("NUMBA_CACHE_DIR", None)
+    if cache is not None:
+        env["NUMBA_CACHE_DIR"] = cache
     done = subprocess.run(
-        [sys.executable, "-c", CHILD, env_id, str(vector)],
+        [python, "-c", CHILD, env_id, str(vector)],
         capture_output=True,
         text=True,
         env=env,
         check=True,
         timeout=1800,
+        # An installed package's children start elsewhere, so as not to import the clone's.
+        cwd=None if python == sys.executable else tempfile.gettempdir(),
     )
     return json.loads(done.stdout.strip().splitlines()[-1])
 
@@ -108,6 +117,9 @@ def main() -> None:
     parser.add_argument("--vector", type=non_negative_int, default=8, help="0: no vector env")
     parser.add_argument("--ids", nargs="+", choices=sorted(IDS), default=sorted(IDS))
     parser.add_argument("--no-cold", action="store_true", help="warm processes only")
+    parser.add_argument(
+        "--installed", metavar="PYTHON", help="a fresh install's interpreter: its own cache"
+    )
     args = parser.parse_args()
 
     cases = [(name, IDS[name], 0) for name in args.ids]
@@ -115,6 +127,13 @@ def main() -> None:
         cases += [(f"{name} vector B={args.vector}", IDS[name], args.vector) for name in args.ids]
     cartpole = median_of([child("CartPole-v1", 0, "") for _ in range(args.repeats)])
     print(row("CartPole-v1", cartpole, cartpole))
+    if args.installed:
+        for label, env_id, vector in cases:
+            first = child(env_id, vector, None, args.installed)  # the user's first step
+            print(row(f"{label}, first after install", first, cartpole), flush=True)
+            later = [child(env_id, vector, None, args.installed) for _ in range(args.repeats)]
+            print(row(f"{label}, warm", median_of(later), cartpole), flush=True)
+        return
     with tempfile.TemporaryDirectory() as shared:
         for label, env_id, vector in cases:
             if not args.no_cold:

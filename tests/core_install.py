@@ -1,8 +1,9 @@
 """What the core install (``pip install slam_env``, no extras) runs, checked in a venv
 that holds nothing else (``make test-core``, which CI runs): both IDs step, the native
-vector env steps, the filter runs, Gymnasium's env checker passes on both IDs, and what
-needs an extra says which in one line. Run as a script, so that ``slam_env`` comes from
-the installed package, not from the source tree."""
+vector env steps, the filter runs, Gymnasium's env checker passes on both IDs, what
+needs an extra says which in one line, and none of it compiles a kernel: the wheel's
+build compiled them into the package (``setup.py``). Run as a script, so that
+``slam_env`` comes from the installed package, not from the source tree."""
 
 from __future__ import annotations
 
@@ -16,6 +17,7 @@ from gymnasium.utils.env_checker import check_env
 import slam_env
 from slam_env.ekf import EKFSLAM
 from slam_env.extras import EXTRAS, MissingExtra
+from slam_env.kernels.base.compiling import KERNELS
 
 IDS = ("slam_env/Landmarks-v0", "slam_env/ActiveSLAM-v0")
 
@@ -58,6 +60,10 @@ def main() -> None:
     f.predict((0.1, 0.5, 0.0))
     f.update(np.array([[2.0, 0.3], [3.0, -0.2]]), np.array([0, 2]))
     assert f.mean.shape == (7,) and f.state_to_id.tolist() == [0, 2]
+    compiled = {k.py_func.__qualname__ for k in KERNELS if sum(k.stats.cache_misses.values())}
+    assert not compiled, f"a fresh install compiled {sorted(compiled)}"
+    loaded = sum(sum(k.stats.cache_hits.values()) for k in KERNELS)
+    assert loaded >= 4, f"only {loaded} kernels came from the shipped cache"
     print(
         f"core install: both IDs, the native vector env and the filter run ({slam_env.__version__})"
     )

@@ -9,17 +9,20 @@ differs). Other options compile their own kernels on first use, as before.
 
 from __future__ import annotations
 
+import contextlib
+
 import gymnasium as gym
 import numpy as np
 
 from slam_env.ekf import EKFSLAM
+from slam_env.extras import MissingExtra
 from slam_env.kernels.base.compiling import KERNELS, cache_directory
 
 IDS = ("slam_env/Landmarks-v0", "slam_env/ActiveSLAM-v0")
 
 
 def warm() -> dict[str, int]:
-    """Run both IDs (single and native vector) and the filter for a few steps; the
+    """Run both IDs (single, native vector and a frame) and the filter; the
     kernels and specialisations compiled (or found in the cache)."""
     for env_id in IDS:
         env = gym.make(env_id)
@@ -34,6 +37,12 @@ def warm() -> dict[str, int]:
         for _ in range(3):
             envs.step(envs.action_space.sample())
         envs.close()
+        drawn = gym.make(env_id, render_mode="rgb_array")
+        drawn.reset(seed=0)
+        # The visible region's ray casts run before the pictures need the 'render' extra.
+        with contextlib.suppress(MissingExtra):
+            drawn.render()
+        drawn.close()
     f = EKFSLAM(
         alphas=(0.01, 0.01, 0.01, 0.01), measurement_cov=np.diag([0.01, 0.001]), max_landmarks=3
     )

@@ -116,3 +116,43 @@ def test_every_kernel_releases_the_gil() -> None:
     assert len(KERNELS) >= 30
     held = [k.py_func.__qualname__ for k in KERNELS if not k.targetoptions.get("nogil")]
     assert not held, held
+
+
+_MOVED_KERNEL = """
+import json, sys
+sys.path.insert(0, sys.argv[1])
+from moved.add_one import add_one
+assert add_one(41) == 42
+print(json.dumps({"misses": sum(add_one.stats.cache_misses.values()),
+                  "hits": sum(add_one.stats.cache_hits.values())}))
+"""
+
+
+def test_the_cache_stays_valid_when_its_tree_moves(tmp_path) -> None:
+    """What lets a wheel ship its compiled kernels: the cache's entries are found by
+    their folder's path within the tree, so a tree compiled in the build directory and
+    installed elsewhere loads them instead of compiling again."""
+    first, second = tmp_path / "build", tmp_path / "site-packages"
+    (first / "moved").mkdir(parents=True)
+    (first / "moved" / "__init__.py").write_text("")
+    (first / "moved" / "add_one.py").write_text(
+        "from slam_env.kernels.base.compiling import kernel\n\n\n"
+        "@kernel\ndef add_one(x):\n    return x + 1\n"
+    )
+
+    def run(root: Path) -> dict:
+        done = _run(_MOVED_KERNEL.replace("sys.argv[1]", repr(str(root))))
+        return json.loads(done.stdout.strip().splitlines()[-1])
+
+    assert run(first) == {"misses": 1, "hits": 0}
+    shutil.move(first, second)
+    assert run(second) == {"misses": 0, "hits": 1}
+
+
+def test_cache_entries_are_named_by_their_folder_within_the_tree() -> None:
+    from slam_env.kernels.base.compiling import KERNEL_TREE, TreeCacheLocator
+
+    subpath = TreeCacheLocator.get_suitable_cache_subpath
+    assert subpath(str(KERNEL_TREE / "ekf" / "filter.py")) == "ekf"
+    assert subpath(str(KERNEL_TREE / "base" / "models.py")) == "base"
+    assert subpath(str(KERNEL_TREE / "__init__.py")) == "tree"
