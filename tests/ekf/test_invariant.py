@@ -92,3 +92,28 @@ def test_it_never_learns_the_global_rotation(motion, measurement, correction):
         worst = max(worst, float(np.abs(b.cov - a.cov - c * np.outer(n, n)).max()))
     assert a.n_landmarks >= 10
     assert worst < 1e-9
+
+
+def test_an_update_whose_transport_would_overflow_is_refused_bit_for_bit():
+    """The retraction rotates every point about the origin: at 1e170 m from it, the
+    correction's rounding moves the pose by ~1e154 m, and carrying Σ to the new mean
+    would overflow. The update is refused (FloatingPointError) with the filter
+    exactly as it was; the standard EKF, whose step is additive, takes the same data."""
+    kwargs = dict(
+        motion_model="velocity", measurement_model="cartesian", control_noise=(0.01, 0.01, 0, 0),
+        measurement_cov=np.eye(2) * 1e-4, max_landmarks=2, initial_pose=(1e170, 0.0, 0.0),
+        initial_pose_cov=np.diag([1e-4, 1e-4, 1e-2]),
+    )  # fmt: skip
+    for linearization in ("standard", "invariant"):
+        f = EKFSLAM(linearization=linearization, **kwargs)
+        f.update(np.array([[1.0, 0.0]]), [0])
+        f.predict((0.0, 0.1))
+        mean, cov = f.mean, f.cov
+        if linearization == "standard":
+            f.update(np.array([[1.0, 0.05]]), [0])
+            assert np.isfinite(f.cov).all()
+            continue
+        with pytest.raises(FloatingPointError, match="exceed"):
+            f.update(np.array([[1.0, 0.05]]), [0])
+        np.testing.assert_array_equal(f.mean, mean)
+        np.testing.assert_array_equal(f.cov, cov)
