@@ -3,6 +3,12 @@
     .venv/bin/python -m benchmarks.bench_consistency [--runs 30] [--steps 500]
         [--odometry-scale 1] [--seed 0] [--variants known/standard ideal jcbb/fej ...]
         [--clutter 0]
+    .venv/bin/python -m benchmarks.bench_consistency --scenario ukfm-slam2d
+        [--runs 100] [--steps 2500] [--seed 0]
+
+``--scenario ukfm-slam2d`` is the field's benchmark instead, ukfm's ``slam2d``
+setting (:mod:`benchmarks.ukfm_slam2d`), for every linearisation; the rest of this
+docstring is about the default scenario, ``env``.
 
 The settings docs/benchmarks.md records: the defaults, ``--odometry-scale 4 --steps 1000``,
 ``--odometry-scale 16 --steps 1000`` and ``--clutter 0.1``. A run of the defaults, every
@@ -74,6 +80,7 @@ from agents.common.arguments import non_negative_int, positive_int
 from agents.planners.grid_map import GridMap
 from agents.planners.grid_search import astar, nearest_passable
 from agents.planners.path_control import ControllerParams, PathFollower
+from benchmarks import ukfm_slam2d
 from references.ideal_ekf import IdealEKF
 from references.smoother import Episode, smooth
 from slam_env.belief.metrics import map_rmse, nees, nees_band, pose_error, share_in_nees_band
@@ -510,11 +517,24 @@ def print_table(
         )
 
 
-def parse_args(argv: Sequence[str] | None = None) -> tuple[argparse.Namespace, gym.Env]:
-    """The arguments, and the env the episodes run on."""
+SCENARIOS = ("env", "ukfm-slam2d")
+# runs and steps by default, per scenario
+DEFAULT_LENGTHS = {"env": (30, 500), "ukfm-slam2d": (ukfm_slam2d.RUNS, ukfm_slam2d.STEPS)}
+
+
+def parse_args(argv: Sequence[str] | None = None) -> tuple[argparse.Namespace, gym.Env | None]:
+    """The arguments, and the env the episodes run on (None for ``ukfm-slam2d``)."""
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--runs", type=positive_int, default=30, help="Monte Carlo episodes")
-    parser.add_argument("--steps", type=positive_int, default=500, help="steps per episode")
+    parser.add_argument(
+        "--scenario", choices=SCENARIOS, default="env",
+        help="the env's default world (env), or ukfm's slam2d setting",
+    )  # fmt: skip
+    parser.add_argument(
+        "--runs", type=positive_int, default=None, help="Monte Carlo episodes (30; ukfm 100)"
+    )
+    parser.add_argument(
+        "--steps", type=positive_int, default=None, help="steps per episode (500; ukfm 2500)"
+    )
     parser.add_argument("--odometry-scale", type=float, default=1.0, help="multiplies α1..α4")
     parser.add_argument(
         "--seed", type=non_negative_int, default=0, help="episode r is reset with seed + r"
@@ -527,6 +547,24 @@ def parse_args(argv: Sequence[str] | None = None) -> tuple[argparse.Namespace, g
     )
     parser.add_argument("--clutter", type=float, default=0.0, help="the env's clutter_rate")
     args = parser.parse_args(argv)
+    runs, steps = DEFAULT_LENGTHS[args.scenario]
+    args.runs = runs if args.runs is None else args.runs
+    args.steps = steps if args.steps is None else args.steps
+    if args.scenario == "ukfm-slam2d":
+        if args.steps < 2:
+            parser.error(f"--steps must be >= 2 for ukfm-slam2d, got {args.steps}")
+        env_only = [
+            flag
+            for flag, value, default in (
+                ("--odometry-scale", args.odometry_scale, 1.0),
+                ("--clutter", args.clutter, 0.0),
+                ("--variants", args.variants, list(ROWS)),
+            )
+            if value != default
+        ]
+        if env_only:
+            parser.error(f"{', '.join(env_only)}: not options of --scenario ukfm-slam2d")
+        return args, None
     if not args.odometry_scale > 0.0:
         parser.error(f"--odometry-scale must be > 0, got {args.odometry_scale}")
     unknown = [v for v in args.variants if v not in ROWS]
@@ -543,6 +581,9 @@ def parse_args(argv: Sequence[str] | None = None) -> tuple[argparse.Namespace, g
 
 def main(argv: Sequence[str] | None = None) -> None:
     args, env = parse_args(argv)
+    if env is None:
+        ukfm_slam2d.print_table(args.runs, args.steps, args.seed)
+        return
     with env:
         print_table(args, *evaluate(env, args, args.variants))
 

@@ -56,8 +56,9 @@ class EKFSLAMWrapper(gym.ObservationWrapper):
         gate: χ² threshold on the innovation's Mahalanobis distance (2 dof), or
             ``None`` to accept everything. Default: the 99.9% quantile.
         initial_pose_cov: (3, 3) covariance of the start pose; default zeros (known).
-        linearization: ``"standard"``, ``"fej"`` (First-Estimates Jacobian EKF) or
-            ``"oc"`` (observability-constrained EKF).
+        linearization: ``"standard"``, ``"fej"`` (First-Estimates Jacobian EKF),
+            ``"oc"`` (observability-constrained EKF) or ``"invariant"`` (right-invariant
+            EKF).
 
     The filter takes the sensor's landmark IDs (known correspondences) and leaves out
     detections without one (clutter). A filter that associates by itself, and the

@@ -115,7 +115,7 @@ class ActiveSLAMOptions:
     )
     linearization: str = option(
         "standard",
-        "the standard EKF, First-Estimates Jacobian, or observability-constrained",
+        "the standard EKF, First-Estimates Jacobian, observability-constrained, or right-invariant",
         choices=LINEARIZATIONS,
     )
     new_landmark_sightings: int = option(

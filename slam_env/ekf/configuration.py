@@ -25,6 +25,7 @@ _LINEARIZATION_CODES = {
     "standard": ekf_codes.STANDARD,
     "fej": ekf_codes.FEJ,
     "oc": ekf_codes.OC,
+    "invariant": ekf_codes.INVARIANT,
 }
 LINEARIZATIONS = tuple(_LINEARIZATION_CODES)
 # The association's gates by default: a landmark within the 99.9% χ² region of an

@@ -42,7 +42,9 @@ rival observation, in that many consecutive scans. The filter then owns the
 identities: a landmark's ID is its slot. ``linearization="fej"`` evaluates the
 Jacobians at the first estimates, ``"oc"`` takes FEJ's prediction and each measurement
 Jacobian at the latest estimate less the least change that keeps the global rotation
-unobservable (:mod:`slam_env.kernels.ekf.filter`); ``"standard"`` is the seeds' filter.
+unobservable (:mod:`slam_env.kernels.ekf.filter`); ``"invariant"`` is the
+right-invariant EKF of Barrau & Bonnabel (:mod:`slam_env.kernels.ekf.invariant`);
+``"standard"`` is the seeds' filter.
 
 Atomic calls
 ------------
@@ -140,7 +142,9 @@ class EKFSLAM(BeliefReads):
             where a mapped one is expected from being taken for it (see
             :mod:`slam_env.kernels.ekf.association`, "Wide pairings").
         linearization: ``"standard"`` (the seeds), ``"fej"`` (First-Estimates
-            Jacobian EKF) or ``"oc"`` (observability-constrained EKF).
+            Jacobian EKF), ``"oc"`` (observability-constrained EKF) or ``"invariant"``
+            (right-invariant EKF; ``cov`` is its error covariance mapped to the state's
+            coordinates, docs/filter.md "The right-invariant EKF").
 
     Use
         ``predict(u)``, ``update(z, ids) -> UpdateResult`` (``ids`` None where the

@@ -33,9 +33,10 @@ CONFIGS = [
         {"outlier_rate": 0.3, "kidnap_rate": 0.01, "preset": "cluttered"},
     ),
     ({"reward_weights": {"coverage": 20.0}}, {"scan_beams": 0, "bumper": False}),
-    # FEJ and OC, and clutter, which a filter told the IDs leaves out.
+    # FEJ, OC and the invariant EKF, and clutter, which a filter told the IDs leaves out.
     ({"linearization": "fej"}, {"clutter_rate": 0.3}),
     ({"linearization": "oc", "correction": "batch"}, {"motion_model": "velocity"}),
+    ({"linearization": "invariant"}, {"measurement_model": "cartesian"}),
 ]
 
 

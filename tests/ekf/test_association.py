@@ -64,12 +64,17 @@ def drive(filters: dict, measurement: str, correction_noise: float, seed: int, s
 
 @pytest.mark.parametrize("measurement", ["range_bearing", "cartesian"])
 @pytest.mark.parametrize("correction", ["sequential", "batch"])
-def test_association_recovers_the_known_ids_result_on_clean_data(measurement, correction):
+@pytest.mark.parametrize("linearization", ["standard", "invariant"])
+def test_association_recovers_the_known_ids_result_on_clean_data(
+    measurement, correction, linearization
+):
     """With well-separated landmarks and data far inside the gates, NN and JCBB give
     every observation to its true landmark and start each landmark once, in the same
-    order: the belief is the known-ID filter's, bit for bit."""
+    order: the belief is the known-ID filter's, bit for bit (the invariant filter's
+    too: its D² is computed with its own S)."""
     filters = {
-        name: make(name, measurement, correction=correction) for name in ("known", *ASSOCIATING)
+        name: make(name, measurement, correction=correction, linearization=linearization)
+        for name in ("known", *ASSOCIATING)
     }
     scale = np.sqrt(np.diag(Q[measurement])) * 0.1  # clean: a tenth of the modelled noise
     for seen, results in drive(filters, measurement, scale, seed=1):

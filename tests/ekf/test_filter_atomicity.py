@@ -28,7 +28,7 @@ def magnitude(rng: np.random.Generator, lo: float, hi: float) -> float:
     return float(10.0 ** rng.uniform(lo, hi))
 
 
-def random_filter(rng: np.random.Generator) -> EKFSLAM:
+def random_filter(rng: np.random.Generator, linearization: str = "standard") -> EKFSLAM:
     """A filter whose covariances span up to 20 orders of magnitude."""
     while True:
         try:
@@ -45,6 +45,7 @@ def random_filter(rng: np.random.Generator) -> EKFSLAM:
                 ),
                 gate=None if rng.random() < 0.5 else magnitude(rng, -1, 3),
                 correction=rng.choice(["sequential", "batch"]),
+                linearization=linearization,
             )
         except ValueError:  # e.g. Q not positive definite after rounding: draw again
             continue
@@ -115,11 +116,12 @@ def snapshot(f: EKFSLAM) -> bytes:
     return b"".join(a.tobytes() for a in arrays)
 
 
-def test_every_refused_call_leaves_the_filter_bit_for_bit_as_it_was():
+@pytest.mark.parametrize("linearization", ["standard", "invariant"])
+def test_every_refused_call_leaves_the_filter_bit_for_bit_as_it_was(linearization):
     rng = np.random.default_rng(16)
     outcomes: Counter[tuple[str, str]] = Counter()
     for _ in range(2000):
-        f = random_filter(rng)
+        f = random_filter(rng, linearization)
         for _ in range(8):
             before = snapshot(f)
             if rng.random() < 0.4:

@@ -12,6 +12,7 @@ import math
 import numpy as np
 import pytest
 
+from references import invariant_ekf
 from slam_env.ekf import EKFSLAM, chi2_gate, kernel_config
 from slam_env.ekf.models import MEASUREMENT_MODELS, MOTION_MODELS
 from slam_env.kernels.ekf import filter as ekf
@@ -47,13 +48,15 @@ def random_control(rng, motion):
 
 
 def run_against_dense(
-    dense_reference, motion, measurement, correction, seed, atol=1e-9, **filter_options
-):
-    """Drive EKFSLAM (with ``filter_options``) and the dense filter through the same
-    random sequence, checking they agree after every call; returns how often each
-    status occurred."""
+    dense_reference, motion, measurement, correction, seed, atol=1e-9, steps=60,
+    reference=None, **filter_options,
+):  # fmt: skip
+    """Drive EKFSLAM (with ``filter_options``) and the dense filter (``reference``, a
+    class with DenseEKFSLAM's interface, that one by default) through the same random
+    sequence of ``steps`` steps, checking they agree after every call; returns how
+    often each status occurred."""
     rng = np.random.default_rng(seed)
-    n_landmarks, steps = 12, 60
+    n_landmarks = 12
     truth = rng.uniform(-6, 6, size=(n_landmarks, 2))
     hm, mm = MEASUREMENT_MODELS[measurement], MOTION_MODELS[motion]
     pose0 = np.array([0.1, -0.2, 3.1])  # near ±π: heading wrapping is exercised
@@ -75,7 +78,7 @@ def run_against_dense(
         **kwargs,
         **filter_options,
     )
-    ref = dense_reference.DenseEKFSLAM(motion, measurement, **kwargs)
+    ref = (reference or dense_reference.DenseEKFSLAM)(motion, measurement, **kwargs)
     true_pose = pose0.copy()
     chol_q = np.linalg.cholesky(Q[measurement])
     counts = {"corrected": 0, "initialised": 0, "rejected": 0}
@@ -184,9 +187,13 @@ def test_many_observations_in_one_update(dense_reference, correction):
     assert f.n_landmarks == n
 
 
-def test_the_batched_kernels_agree_with_the_dense_filter_for_every_combination(dense_reference):
+@pytest.mark.parametrize(("linearization", "steps"), [("standard", 50), ("invariant", 100)])
+def test_the_batched_kernels_agree_with_the_dense_filter_for_every_combination(
+    dense_reference, linearization, steps
+):
     """One batch of 8 worlds, one per motion × measurement × correction combination,
-    each against its own dense textbook filter, to 1e-9 after every call."""
+    each against its own dense textbook filter (the seeds', or the right-invariant
+    one of ``references/invariant_ekf.py``), to 1e-9 after every call."""
     rng = np.random.default_rng(8)
     B, M, D = len(COMBOS), 10, 5
     dmax = 3 + 2 * M
@@ -199,13 +206,26 @@ def test_the_batched_kernels_agree_with_the_dense_filter_for_every_combination(d
     id_to_slot, slot_to_id = np.full((B, M), -1), np.full((B, M), -1)
     first = x.copy()
     config = [
-        kernel_config(m, h, c, ALPHAS if m == "odometry" else CONTROL_NOISE, Q[h], gate)
+        kernel_config(
+            m,
+            h,
+            c,
+            ALPHAS if m == "odometry" else CONTROL_NOISE,
+            Q[h],
+            gate,
+            linearization=linearization,
+        )
         for m, h, c in COMBOS
     ]
     params = np.array([p for p, _ in config])
     modes = np.array([m for _, m in config])
+    reference = (
+        invariant_ekf.InvariantEKFSLAM
+        if linearization == "invariant"
+        else dense_reference.DenseEKFSLAM
+    )
     refs = [
-        dense_reference.DenseEKFSLAM(
+        reference(
             m,
             h,
             Q[h],
@@ -223,7 +243,7 @@ def test_the_batched_kernels_agree_with_the_dense_filter_for_every_combination(d
     everywhere, error = np.ones(B, dtype=np.bool_), np.zeros(B, np.int64)
     work = np.empty(ekf.update_workspace_size(dmax, D))
     counts = {"corrected": 0, "initialised": 0, "rejected": 0}
-    for _ in range(50):
+    for _ in range(steps):
         u = np.zeros((B, 3))
         for b, (motion, _, _) in enumerate(COMBOS):
             cdim = MOTION_MODELS[motion].control_dim

@@ -39,7 +39,15 @@ CONFIGS = [
     (ACTIVE, {}),
     (ACTIVE, {"observation": "full", "n_landmarks": 6, "outlier_rate": 0.2, "kidnap_rate": 0.01}),
     (ACTIVE, {"motion_model": "velocity", "measurement_model": "cartesian"}),
-    (ACTIVE, {"action_type": "discrete", "correction": "batch", "preset": "rooms"}),
+    (
+        ACTIVE,
+        {
+            "action_type": "discrete",
+            "correction": "batch",
+            "preset": "rooms",
+            "linearization": "invariant",
+        },
+    ),
     (ACTIVE, {"observation": "local", "n_landmarks": 6, "outlier_rate": 0.2}),
 ]
 

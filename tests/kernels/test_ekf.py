@@ -346,7 +346,8 @@ def test_the_workspace_grows_with_the_detections_and_the_state():
 
 def test_the_workspace_is_as_large_as_an_update_needs_and_no_larger():
     """D observations of known landmarks in batch mode use the workspace up to its
-    last entry (the gate's mark of observation D − 1); one entry less is refused
+    last entry (the gate's mark of observation D − 1; the invariant filter's transport
+    rows, which any world of a batch may need, come before it); one entry less is refused
     (test_too_small_a_workspace_is_refused_for_the_worlds_asked_for)."""
     D = 3
     batch = Batch([("odometry", "cartesian", "batch", None)], D)

@@ -19,7 +19,7 @@ Configuration, per world
                                    :data:`ASSOCIATION` (:data:`KNOWN`,
                                    :data:`NEAREST_NEIGHBOR`, :data:`JCBB`) and
                                    :data:`LINEARIZATION` (:data:`STANDARD`/:data:`FEJ`/
-                                   :data:`OC`)
+                                   :data:`OC`/:data:`INVARIANT`)
 """
 
 from __future__ import annotations
@@ -33,7 +33,7 @@ MATCH_GATE, NEW_GATE, SIGHTINGS, WIDE_SCANS = 8, 9, 10, 11  # the association's
 MOTION, MEASUREMENT, CORRECTION, ASSOCIATION, LINEARIZATION = 0, 1, 2, 3, 4
 SEQUENTIAL, BATCH = 0, 1
 KNOWN, NEAREST_NEIGHBOR, JCBB = 0, 1, 2
-STANDARD, FEJ, OC = 0, 1, 2
+STANDARD, FEJ, OC, INVARIANT = 0, 1, 2, 3
 
 # Per-observation status (slam_env.ekf.Status), and UNUSED for padding, worlds not
 # touched and worlds whose update failed. DISCARDED: an observation the association

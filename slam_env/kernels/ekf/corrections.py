@@ -27,6 +27,7 @@ from slam_env.kernels.ekf.codes import (
     FEJ,
     FLOAT_MAX,
     GATE,
+    INVARIANT,
     NOT_FINITE,
     NOT_POSITIVE_DEFINITE,
     OC,
@@ -38,6 +39,7 @@ from slam_env.kernels.ekf.codes import (
     REJECTED,
     SINGULAR,
 )
+from slam_env.kernels.ekf.invariant import fill_transport, retract
 
 # The small matrices of a correction in the workspace (see correct_group).
 SMALL_S, SMALL_SK, SMALL_L, SMALL_LI, SMALL_G, SMALL_E, SMALL_EL, SMALL_W, SMALL_V, SMALL_F = range(
@@ -96,15 +98,20 @@ def add_observation(
     d: int,
     first: np.ndarray,
     linearization: int,
+    x0: np.ndarray,
+    w: np.ndarray,
 ) -> int:
     """Observation m of a group: the landmark at rows s, s+1 of the mean ``xw``
     linearised (H into ``obs[m]``, ν into ``vec[0, 2m:2m+2]``) and its rows 2m, 2m+1
     of Cᵀ = H P at the current covariance P − Σ_{ρ<r} U[ρ]ᵀ U[ρ]. ν is taken at the
     mean; H there too (:data:`STANDARD`), at the first estimates ``first``
     (:data:`FEJ`), or at the mean and then projected off the global rotation at the
-    first estimates (:data:`OC`, :func:`_constrain_rotation`).
-    :data:`SINGULAR` where h cannot be linearised. (Rows are indexed, not sliced,
-    here and below: a view of an array costs a reference count.)"""
+    first estimates (:data:`OC`, :func:`_constrain_rotation`). With :data:`INVARIANT`
+    the current covariance is T P Tᵀ − Σ U[ρ]ᵀ U[ρ], T the transport from the committed
+    mean ``x0`` to ``xw`` (:mod:`.invariant`; w = v(xw) − v(x0) into ``w``), and
+    Cᵀ = (h T) P Tᵀ less the factors' part. :data:`SINGULAR` where h cannot be
+    linearised. (Rows are indexed, not sliced, here and below: a view of an array
+    costs a reference count.)"""
     x = xw[0]
     y = xw[1]
     th = xw[2]
@@ -142,14 +149,27 @@ def add_observation(
     obs[m, 9] = h14
     obs[m, 10] = s
     a = 2 * m
+    g02 = h02  # the heading column of h T (T = I but for the invariant filter)
+    g12 = h12
+    invariant = linearization == INVARIANT
+    if invariant:
+        fill_transport(xw, x0, d, w)
+        g02 = h02 + (h00 * w[0] + h01 * w[1] + h03 * w[s] + h04 * w[s + 1])
+        g12 = h12 + (h10 * w[0] + h11 * w[1] + h13 * w[s] + h14 * w[s + 1])
     for c in range(d):
         p0 = P[0, c]
         p1 = P[1, c]
         p2 = P[2, c]
         ps = P[s, c]
         pt = P[s + 1, c]
-        C[a, c] = h00 * p0 + h01 * p1 + h02 * p2 + h03 * ps + h04 * pt
-        C[a + 1, c] = h10 * p0 + h11 * p1 + h12 * p2 + h13 * ps + h14 * pt
+        C[a, c] = h00 * p0 + h01 * p1 + g02 * p2 + h03 * ps + h04 * pt
+        C[a + 1, c] = h10 * p0 + h11 * p1 + g12 * p2 + h13 * ps + h14 * pt
+    if invariant:  # (h T) P, then times Tᵀ on the right: + its θ entry times w
+        c0 = C[a, 2]
+        c1 = C[a + 1, 2]
+        for c in range(d):
+            C[a, c] += c0 * w[c]
+            C[a + 1, c] += c1 * w[c]
     for rho in range(r):
         w0 = h00 * U[rho, 0] + h01 * U[rho, 1] + h02 * U[rho, 2]
         w0 += h03 * U[rho, s] + h04 * U[rho, s + 1]
@@ -263,6 +283,8 @@ def correct_group(
     vec: np.ndarray,
     status: np.ndarray,
     nis: np.ndarray,
+    invariant: bool,
+    delta: np.ndarray,
 ) -> tuple[int, int, int]:
     """Gate and apply m linearised observations (``obs[:m]``, their rows of Cᵀ in
     ``C[:2m]``, ν in ``vec[0, :2m]``) as one stacked correction. S = H P Hᵀ; each
@@ -271,8 +293,11 @@ def correct_group(
     rows of Cᵀ and ν in place: a target row never passes its source) and applied:
     the factor rows Yᵀ = Vᵀ L⁻¹ Cᵀ into ``U[r:]``, the mean step x += K ν =
     (G ν)ᵀ Cᵀ on the working mean ``xw``. Returns (factor rows added, rejected,
-    error code). (A non-finite value in U or the mean is caught before the commit:
-    by the next linearisation, :func:`factor_check` or the check of the mean.)"""
+    error code). With ``invariant`` the step K ν is summed into ``delta`` and applied by
+    the exponential map, which also carries the factor rows to the new mean
+    (:func:`~.invariant.retract`). (A non-finite value in U or the mean is caught
+    before the commit: by the next linearisation, :func:`factor_check` or the check
+    of the mean.)"""
     q00 = params[Q00]
     q01 = params[Q01]
     q11 = params[Q11]
@@ -366,6 +391,15 @@ def correct_group(
             coef = small[SMALL_F, i, t]
             for c in range(d):
                 U[r + i, c] += coef * C[t, c]
+    if invariant:
+        for c in range(d):
+            delta[c] = 0.0
+        for t in range(mm):
+            coef = vec[1, t]
+            for c in range(d):
+                delta[c] += coef * C[t, c]
+        retract(xw, delta, d, U, r + mm)
+        return mm, rejected, OK
     for t in range(mm):
         coef = vec[1, t]
         for c in range(d):

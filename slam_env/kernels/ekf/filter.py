@@ -32,7 +32,11 @@ L, but takes each H at the latest estimate, as the standard EKF does, and remove
 it the least it must (in the Frobenius norm) for those directions to stay unobservable
 (``H N = 0``, N at the first estimates; Hesch, Kottas, Bowman & Roumeliotis, 2014): FEJ's
 constraint, with Jacobians nearer the truth than the first estimates. Means,
-innovations and noise Jacobians are the same in all three.
+innovations and noise Jacobians are the same in all three. The right-invariant EKF
+(Barrau & Bonnabel) predicts as the standard EKF and linearises at the latest
+estimate, but corrects the mean by the exponential map of SE_{1+N}(2) and carries P
+to each new estimate (:mod:`.invariant`): P is then J_r P_inv J_rᵀ, the covariance of
+its error in invariant coordinates mapped to the state's.
 
 Every call is atomic per world: a world whose step fails (bad input, an innovation
 covariance that is not positive definite, a non-finite intermediate, a covariance that
@@ -66,19 +70,21 @@ from slam_env.kernels.ekf.codes import (
     DISCARD_ID,
     DISCARDED,
     DUPLICATE_ID,
+    FEJ,
+    INVARIANT,
     KNOWN,
     LINEARIZATION,
     MEASUREMENT,
     MOTION,
     NOISE,
     NOT_FINITE,
+    OC,
     OK,
     OVERFLOW,
     REJECTED,
     SEQUENTIAL,
     SINGULAR,
     SMALL_WORKSPACE,
-    STANDARD,
     TENTATIVE,
     TENTATIVE_ID,
     UNUSED,
@@ -92,6 +98,7 @@ from slam_env.kernels.ekf.corrections import (
     correct_group,
     factor_check,
 )
+from slam_env.kernels.ekf.invariant import fill_transport, transport_in_place, transport_terms
 from slam_env.kernels.ekf.new_landmarks import commit_new_landmarks, new_landmarks
 
 
@@ -100,7 +107,7 @@ def update_workspace_size(dmax: int, max_obs: int) -> int:
     """Entries of the float64 workspace :func:`update` needs for states of ``dmax``
     rows and up to ``max_obs`` observations per world (``z.shape[1]``)."""
     r = 2 * max_obs
-    return dmax * (2 * r + 4) + N_SMALL * r * r + 2 * r + 13 * max_obs
+    return dmax * (2 * r + 6) + N_SMALL * r * r + 2 * r + 13 * max_obs
 
 
 @borrowing_kernel
@@ -233,7 +240,7 @@ def predict(
                 u[b],
                 params[b],
                 modes[b, MOTION],
-                modes[b, LINEARIZATION] != STANDARD,
+                modes[b, LINEARIZATION] == FEJ or modes[b, LINEARIZATION] == OC,
             )
 
 
@@ -337,7 +344,8 @@ def update(
         return False
     # The workspace: the working mean, the factor rows U, the rows C (Cᵀ = H P, then
     # the new landmarks' cross-covariances), the corrected pose rows PR, the small
-    # matrices, ν and G ν, and the per-observation scratch.
+    # matrices, ν and G ν, the invariant filter's transport rows (w and c, or the step
+    # of a correction: see .invariant), and the per-observation scratch.
     R = 2 * K
     o = 0
     xw = work[o : o + dmax]
@@ -352,6 +360,8 @@ def update(
     o += N_SMALL * R * R
     vec = work[o : o + 2 * R].reshape((2, R))
     o += 2 * R
+    tw = work[o : o + 2 * dmax].reshape((2, dmax))
+    o += 2 * dmax
     obs = work[o : o + 13 * K].reshape((K, 13))
     for b in range(B):
         if not mask[b]:
@@ -375,6 +385,7 @@ def update(
         model = modes[b, MEASUREMENT]
         sequential = modes[b, CORRECTION] == SEQUENTIAL
         linearization = modes[b, LINEARIZATION]
+        invariant = linearization == INVARIANT
         fb = first[b]
         # np.int64(0), not 0: a literal 0 passed on would compile the callees once more.
         r = np.int64(0)
@@ -395,7 +406,7 @@ def update(
                     continue  # a new landmark
                 code = add_observation(
                     model, xw, Pb, U, r, 3 + 2 * slot, zb[j, 0], zb[j, 1], obs, C, vec, m, d,
-                    fb, linearization,
+                    fb, linearization, xb, tw[0],
                 )  # fmt: skip
                 if code == SINGULAR:
                     st[j] = REJECTED  # h cannot be linearised (a landmark on the robot)
@@ -412,11 +423,11 @@ def update(
                 continue
             if sequential:  # one observation: inlined with m = 1, its loops unrolled
                 added, dropped, code = correct_group(
-                    xw, d, U, r, C, obs, 1, pb, small, vec, st, ns
+                    xw, d, U, r, C, obs, 1, pb, small, vec, st, ns, invariant, tw[0]
                 )  # fmt: skip
             else:
                 added, dropped, code = correct_group(
-                    xw, d, U, r, C, obs, m, pb, small, vec, st, ns
+                    xw, d, U, r, C, obs, m, pb, small, vec, st, ns, invariant, tw[0]
                 )  # fmt: skip
             rejected += dropped
             m = np.int64(0)
@@ -426,11 +437,15 @@ def update(
             r += added
         if err == OK:
             err = factor_check(U, r, d, PR[0])
+        transport = invariant and r > 0  # the invariant filter's Σ, carried to the new mean
+        if err == OK and transport:
+            fill_transport(xw, xb, d, tw[0])
+            err = transport_terms(Pb, tw[0], tw[1], d)
         new = 0
         if err == OK:
             new, err = new_landmarks(
                 xw, Pb, d, slot_of, zb, ib, k, pb, model, U, r, PR, C, obs, small[SMALL_S],
-                fb, linearization != STANDARD,
+                fb, linearization in (FEJ, OC), transport, tw[0], tw[1],
             )  # fmt: skip
         if err == OK and not all_finite(xw, d + 2 * new):
             err = NOT_FINITE
@@ -441,6 +456,8 @@ def update(
             error[b] = err
             continue
         # Commit: nothing above wrote the state.
+        if transport:
+            transport_in_place(Pb, tw[0], tw[1], d)
         if r > 0:
             apply_factors(Pb, U, r, d)
         commit_new_landmarks(

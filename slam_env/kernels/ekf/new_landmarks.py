@@ -22,6 +22,7 @@ from slam_env.kernels.ekf.codes import (
     Q11,
 )
 from slam_env.kernels.ekf.corrections import all_finite
+from slam_env.kernels.ekf.invariant import transported
 
 
 @borrowing_kernel
@@ -43,6 +44,9 @@ def new_landmarks(
     NB: np.ndarray,
     first: np.ndarray,
     first_estimates: bool,
+    transport: bool,
+    w: np.ndarray,
+    cw: np.ndarray,
 ) -> tuple[int, int]:
     """The new landmarks (seed 000 §2.2), in the given order, from the corrected
     belief, without writing P: m = h⁻¹(z, pose) into ``xw[d:]``; with L = ∂h⁻¹/∂pose,
@@ -58,7 +62,12 @@ def new_landmarks(
     map the global rotation's direction at the predicted pose, (−ŷ, x̂, 1), to
     J(m − p̂_corrected) + J p̂ rather than to the landmark's own J m, and a scan that both
     corrects and starts a landmark would give the filter information about the
-    unobservable rotation."""
+    unobservable rotation.
+
+    With ``transport`` (the invariant filter, after a correction) the corrected belief
+    is T P Tᵀ − Uᵀ U, T P Tᵀ = P + w cᵀ + c wᵀ with ``w`` and ``cw`` from
+    :func:`~.invariant.transport_terms`; L and W are then the standard ones at the
+    corrected pose (docs/filter.md, "How the kernels keep it")."""
     new = 0
     for j in range(k):
         if ids[j] >= 0 and slot_of[ids[j]] < 0:
@@ -69,7 +78,7 @@ def new_landmarks(
         PRt = PR[t]
         Pt = P[t]
         for c in range(d):
-            v = Pt[c]
+            v = transported(P, w, cw, t, c) if transport else Pt[c]
             for rho in range(r):
                 v -= U[rho, t] * U[rho, c]
             PRt[c] = v  # the arithmetic of apply_factors: the same bits
