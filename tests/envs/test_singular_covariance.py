@@ -13,6 +13,7 @@ import pytest
 
 import slam_env  # noqa: F401  (registers the env IDs)
 from slam_env.belief.ekf_wrapper import EKFSLAMWrapper
+from slam_env.config import OdometryConfig
 from slam_env.envs.landmarks import LandmarksEnv
 
 ACTIVE = "slam_env/ActiveSLAM-v0"
@@ -70,9 +71,22 @@ def test_the_vector_env_masks_an_undefined_nees(options) -> None:
     venv.close()
 
 
-def test_the_wrapper_over_the_raw_env_leaves_an_undefined_nees_out() -> None:
-    env = EKFSLAMWrapper(LandmarksEnv(motion_model="velocity", max_range=8.0, fov=6.28))
-    env.reset(seed=3)
-    _, _, _, _, info = env.step(FORWARD)
-    _assert_finite(None, info)
-    assert "pose_nees" not in info  # straight ahead from an exact pose: singular
+@pytest.mark.parametrize("options", SINGULAR.values(), ids=SINGULAR)
+def test_the_wrapper_over_the_raw_env_leaves_an_undefined_nees_out(options) -> None:
+    env = EKFSLAMWrapper(LandmarksEnv(max_range=8.0, fov=6.28, **options))
+    obs, info = env.reset(seed=3)
+    _assert_finite(obs, info)
+    for _ in range(20):
+        obs, _, _, _, info = env.step(FORWARD)
+        _assert_finite(obs, info)
+
+
+def test_the_velocity_model_has_control_noise_by_default() -> None:
+    sigma_p, sigma_theta, beta_p, _ = OdometryConfig().velocity_noise
+    assert sigma_p > 0.0 and sigma_theta > 0.0
+    # Near the odometry model's default noise on a straight step at the default speed.
+    step = 1.0 * 0.2  # max_speed · dt, m
+    _, a2, a3, _ = OdometryConfig().alphas
+    along = math.sqrt(sigma_p**2 + beta_p * step**2)
+    assert along == pytest.approx(math.sqrt(a3) * step, rel=0.15)
+    assert sigma_theta == pytest.approx(math.sqrt(2 * a2) * step, rel=0.25)
