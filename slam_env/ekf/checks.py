@@ -13,6 +13,7 @@ from typing import Any
 import numpy as np
 
 from slam_env.kernels.base.integers import MAX_INTEGER, MAX_INTEGER_TEXT
+from slam_env.kernels.ekf.association import MAX_NODES, MAX_PAIRINGS
 from slam_env.kernels.ekf.codes import COV_LIMIT
 
 _FLOAT64 = np.dtype(np.float64)
@@ -134,6 +135,19 @@ def wide_pairing_scans(value: Any, data_association: str) -> int:
             f"wide_pairing_scans > 1 needs data_association='jcbb', got {data_association!r}"
         )
     return value
+
+
+def jcbb_pairings(pairings: int, what: str, fix: str) -> None:
+    """``ValueError`` where JCBB could need more than
+    :data:`~slam_env.kernels.ekf.association.MAX_PAIRINGS` pairings in one scan
+    (``pairings``, as ``what`` derives it): its search would take seconds a scan."""
+    if pairings > MAX_PAIRINGS:
+        raise ValueError(
+            f"data_association='jcbb' pairs at most {MAX_PAIRINGS} observations a scan, and "
+            f"{what} = {pairings}: its search examines up to {MAX_NODES} hypotheses, each "
+            f"extending the joint innovation covariance's factor in O(pairings²), seconds a "
+            f"scan beyond that; {fix}, or use data_association='nearest_neighbor'"
+        )
 
 
 def landmark_id(value: Any) -> int:

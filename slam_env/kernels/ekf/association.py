@@ -16,7 +16,8 @@ for observation j and landmark i, the innovation ``ν = z_j − h(x, m_i)``, its
   equals, the smallest joint NIS. A depth-first search over the observations in
   order, pruned when the pairings left cannot beat the best found, and stopped after
   :data:`MAX_NODES` hypotheses (the best so far is kept). S_H's Cholesky factor grows
-  by two rows per pairing and is reused down the branch.
+  by two rows per pairing and is reused down the branch; a hypothesis holds at most
+  :data:`MAX_PAIRINGS` pairings (what keeps a scan's search within about a second).
 
 Wide pairings (JCBB, with ``WIDE_SCANS`` > 1). A pairing is *wide* when its
 innovation covariance S spans more than :data:`WIDE_RATIO` times the area of the
@@ -86,6 +87,13 @@ from slam_env.kernels.ekf.codes import (
 from slam_env.kernels.ekf.filter import largest_count
 
 MAX_NODES = 20_000  # hypotheses JCBB examines in one scan, at most
+# Pairings a JCBB hypothesis holds, at most. A node at m pairings extends S_H's factor
+# in ~4m² multiply-adds (the forward substitution of its 2m rows), so a scan costs up
+# to MAX_NODES · 4m²: 3.3e8 at 64 (~0.3 s; the hardest scans of benchmarks/bench_jcbb
+# take 0.13 s), 1.8e10 at the 480 pairings of a ring of landmarks in view (17 s). The
+# filter and the budget refuse a scan or an env that could need more
+# (slam_env.ekf.checks.jcbb_pairings); the kernel never pairs more.
+MAX_PAIRINGS = 64
 CONFIRM_WINDOW = 5  # updates a tentative sighting waits for its confirmation
 # Columns of a tentative sighting: world position, its covariance, its age in updates
 # (negative: the row is free).
@@ -106,8 +114,8 @@ _H, _NU, _ROW, _OBS, _PAIR_WIDTH = 0, 10, 12, 13, 14
 @kernel
 def most_pairings(max_landmarks: int, max_obs: int) -> int:
     """The most pairings a hypothesis of JCBB holds: one landmark per observation, no
-    landmark twice."""
-    return min(max_obs, max_landmarks)
+    landmark twice, and no more than :data:`MAX_PAIRINGS`."""
+    return min(max_obs, max_landmarks, MAX_PAIRINGS)
 
 
 @kernel
