@@ -22,6 +22,7 @@ from slam_env.belief.coverage import COVERAGE_CELL, HEADING_BINS, SECTORS, SENSO
 from slam_env.belief.coverage_classes import class_counts_shape
 from slam_env.belief.encodings import BeliefGeometry
 from slam_env.config import EnvConfig, plain
+from slam_env.ekf.checks import jcbb_pairings
 from slam_env.kernels.ekf.association import association_workspace_sizes
 from slam_env.kernels.ekf.filter import update_workspace_size
 from slam_env.kernels.world import motion
@@ -252,6 +253,7 @@ def check_budget(
     reward_weights: Mapping[str, Any] | None = None,
     num_envs: int = 1,
     association: bool = False,
+    jcbb: bool = False,
 ) -> Usage:
     """Check ``config`` against the budget; ``ValueError`` names what exceeds it.
 
@@ -267,6 +269,8 @@ def check_budget(
         num_envs: sub-envs sharing the memory budget (a vector env).
         association: whether the filter associates its observations itself
             (``ActiveSLAM-v0``'s ``data_association`` other than ``"known"``).
+        jcbb: whether it does so with JCBB, whose search grows with the square of
+            the pairings a scan can have (:func:`slam_env.ekf.checks.jcbb_pairings`).
     """
     world = world_size(config) if world is None else world
     moves = _check_work(config)
@@ -300,6 +304,15 @@ def check_budget(
     _check_observation_bounds(config, world, belief)
     if belief is not None:
         _check_belief_work(config, world, belief)
+    if jcbb:
+        seen = detections_in_view(config, world)
+        jcbb_pairings(
+            min(seen, world.n_landmark_slots),
+            f"its pairings per scan = min(detections in view, landmark slots) = min({seen}, "
+            f"{world.n_landmark_slots})",
+            "lower max_range or max_detections, or use fewer landmarks (n_landmarks, or a "
+            "layout's)",
+        )
     memory = _check_memory(config, world, belief, coverage, association, num_envs)
     return Usage(moves, cells, memory)
 

@@ -16,6 +16,8 @@ from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
+from slam_env.kernels.base.integers import MAX_INTEGER, MAX_INTEGER_TEXT
+
 PRESETS = ("random", "open", "cluttered", "rooms")
 MOTION_MODELS = ("odometry", "velocity")
 MEASUREMENT_MODELS = ("range_bearing", "cartesian")
@@ -62,7 +64,9 @@ def option(
     """A field of an option table: its default, what it means (``doc``), its ``unit``,
     and what it may be, which :func:`check_options` checks and the docs list: a number
     ``> above``, ``>= low``, ``<= high``; one of ``choices``; or, with ``entries``, a
-    tuple of that many numbers (each bounded so), the labels naming them."""
+    tuple of that many numbers (each bounded so), the labels naming them. An integer
+    option without a ``high`` is bounded by
+    :data:`~slam_env.kernels.base.integers.MAX_INTEGER` (what the kernels hold)."""
     limits = {"above": above, "low": low, "high": high, "choices": choices, "entries": entries}
     metadata = {"doc": doc, "unit": unit, **limits}
     if isinstance(default, (list, dict)) or dataclasses.is_dataclass(default):
@@ -76,7 +80,8 @@ def limits_text(f: dataclasses.Field) -> str:
     if m.get("choices"):
         return "one of " + ", ".join(repr(c) for c in m["choices"])
     integer = isinstance(f.default, int) and not isinstance(f.default, bool)
-    bound = _interval(m, integer or "int" in str(f.type)) if _bounded(m) else ""
+    integer = integer or "int" in str(f.type)
+    bound = _interval(m, integer) if _bounded(m) or integer else ""
     if m.get("entries"):
         each = f", each {bound}" if bound else ""
         return f"{len(m['entries'])} numbers ({', '.join(m['entries'])}){each}"
@@ -88,9 +93,15 @@ def _bounded(m: Mapping) -> bool:
 
 
 def _interval(m: Mapping, integer: bool) -> str:
-    """The bounds of a table entry as ``> 0``, ``>= 1``, ``in [0, 1]`` or ``in (0, 1]``."""
-    show = (lambda b: str(int(b))) if integer else (lambda b: f"{b:g}")
-    above, low, high = m.get("above"), m.get("low"), m.get("high")
+    """The bounds of a table entry as ``> 0``, ``>= 1``, ``in [0, 1]`` or ``in (0, 1]``
+    (an integer's ``high`` is at most :data:`MAX_INTEGER`)."""
+
+    def show(b: float) -> str:
+        if not integer:
+            return f"{b:g}"
+        return MAX_INTEGER_TEXT if b == MAX_INTEGER else str(int(b))
+
+    above, low, high = m.get("above"), m.get("low"), _high(m, integer)
     if high is None:
         return f"> {show(above)}" if above is not None else f">= {show(low)}"
     if above is None and low is None:
@@ -99,13 +110,21 @@ def _interval(m: Mapping, integer: bool) -> str:
     return f"in {opening}, {show(high)}]"
 
 
+def _high(m: Mapping, integer: bool) -> float | None:
+    """An entry's upper bound: its ``high``, and for an integer at most MAX_INTEGER."""
+    high = m.get("high")
+    if not integer:
+        return high
+    return MAX_INTEGER if high is None else min(high, MAX_INTEGER)
+
+
 def _check_number(owner: str, name: str, value: Any, integer: bool, m: Mapping) -> None:
     if integer:
         if isinstance(value, bool) or not isinstance(value, int):
             raise TypeError(f"{owner}.{name} must be an int, got {type(value).__name__}")
     else:
         _check_finite(owner, **{name: value})
-    above, low, high = m.get("above"), m.get("low"), m.get("high")
+    above, low, high = m.get("above"), m.get("low"), _high(m, integer)
     if (
         (above is not None and not value > above)
         or (low is not None and not value >= low)
@@ -125,7 +144,7 @@ def check_options(obj: Any) -> None:
         if "doc" not in m:
             continue
         value = getattr(obj, f.name)
-        if value is None and f.default is None:
+        if value is None and (f.default is None or "None" in str(f.type)):
             continue
         if m["choices"]:
             _check_choice(owner, f.name, value, m["choices"])
@@ -271,8 +290,11 @@ class OdometryConfig:
         entries=("α1", "α2", "α3", "α4"),
     )  # fmt: skip
     velocity_noise: tuple[float, float, float, float] = option(
-        (0.0, 0.0, 0.01, 0.02),
-        "the velocity model's noise: σp (m), σθ (rad), βp, βθ",
+        (0.01, 0.01, 0.01, 0.02),
+        "the velocity model's noise: σp (m), σθ (rad), βp, βθ; by default, on a straight "
+        "step at the default speed (0.2 m), σ = 0.022 m along and 0.010 rad in heading, "
+        "near the default alphas' 0.020 m and 0.013 rad, and never zero (σp, σθ > 0: "
+        "without them a step without a turn adds no heading noise)",
         low=0,
         entries=("σp", "σθ", "βp", "βθ"),
     )

@@ -78,7 +78,7 @@ BELIEF_INFO: tuple[InfoKey, ...] = (
     InfoKey(
         "pose_nees",
         "the pose's normalised estimation error squared (3 dof)",
-        when="the pose covariance is finite and positive definite",
+        when="it is defined: finite (a pose covariance singular along the error has none)",
     ),
     InfoKey("landmarks_known", "landmarks in the belief"),
     InfoKey("rejected", "observations the χ² gate refused this episode"),

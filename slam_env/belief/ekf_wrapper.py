@@ -81,7 +81,8 @@ class EKFSLAMWrapper(gym.ObservationWrapper):
     never applied as NaN, and never raised out of ``step``), or the gate refused
     ``DIVERGENCE_REJECTIONS`` observations in a row (after a kidnapping, every
     landmark is where the belief says it cannot be). ``pose_nees`` is absent, like
-    ``map_rmse``, in the one case it is undefined (a covariance gone non-finite).
+    ``map_rmse``, where it is undefined (a pose covariance that is singular along the
+    error, e.g. after the velocity model's first step, or gone non-finite).
 
     The encoding, the diagnostics and the entropy are computed by the belief kernels
     (:mod:`slam_env.kernels`) on the filter's belief as a batch of one.
@@ -275,7 +276,7 @@ class EKFSLAMWrapper(gym.ObservationWrapper):
         info["pose_error"] = pose_error
         info["heading_error"] = heading_error
         # Undefined metrics are absent, never NaN: the map error before the first
-        # landmark, the NEES of a covariance gone non-finite.
+        # landmark, the NEES of a singular or non-finite pose covariance.
         if not math.isnan(map_rmse):
             info["map_rmse"] = map_rmse
         if not math.isnan(pose_nees):

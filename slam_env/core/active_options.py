@@ -11,7 +11,7 @@ from typing import Any
 
 from slam_env.belief.encodings import OBSERVATION_MODES
 from slam_env.belief.reward import ActiveSLAMRewardWeights
-from slam_env.config import EnvConfig, option, plain
+from slam_env.config import EnvConfig, check_options, option, plain
 from slam_env.ekf import CORRECTION_MODES, DATA_ASSOCIATIONS, DEFAULT_GATE, LINEARIZATIONS, checks
 
 # Proximity beams in the active-SLAM observation, unless the options set them.
@@ -158,6 +158,7 @@ class ActiveSLAMOptions:
             )
         for name, value in values.items():
             object.__setattr__(self, name, value)
+        check_options(self)  # the table's limits, the integers' upper bound among them
         object.__setattr__(self, "weights", self._weights(self.reward_weights))
 
     @classmethod

@@ -12,6 +12,8 @@ from typing import Any
 
 import numpy as np
 
+from slam_env.kernels.base.integers import MAX_INTEGER, MAX_INTEGER_TEXT
+from slam_env.kernels.ekf.association import MAX_NODES, MAX_PAIRINGS
 from slam_env.kernels.ekf.codes import COV_LIMIT
 
 _FLOAT64 = np.dtype(np.float64)
@@ -110,18 +112,42 @@ def new_landmark_sightings(value: Any) -> int:
     return int(value)
 
 
+def integer(value: Any, name: str, low: int) -> int:
+    """An int in [low, :data:`~slam_env.kernels.base.integers.MAX_INTEGER`] (numpy
+    integers accepted, bool refused): what the kernels hold."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)):
+        raise TypeError(f"{name} must be an int, got {type(value).__name__}")
+    if value < low:
+        raise ValueError(f"{name} must be >= {low}, got {value}")
+    if value > MAX_INTEGER:
+        raise ValueError(
+            f"{name} must be <= {MAX_INTEGER_TEXT} (what the kernels hold), got {value}"
+        )
+    return int(value)
+
+
 def wide_pairing_scans(value: Any, data_association: str) -> int:
     """The consecutive scans a wide pairing waits for: an int >= 1 (bool refused);
     more than 1 only with ``data_association="jcbb"``."""
-    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)):
-        raise TypeError(f"wide_pairing_scans must be an int, got {type(value).__name__}")
-    if value < 1:
-        raise ValueError(f"wide_pairing_scans must be >= 1, got {value}")
+    value = integer(value, "wide_pairing_scans", 1)
     if value > 1 and data_association != "jcbb":
         raise ValueError(
             f"wide_pairing_scans > 1 needs data_association='jcbb', got {data_association!r}"
         )
-    return int(value)
+    return value
+
+
+def jcbb_pairings(pairings: int, what: str, fix: str) -> None:
+    """``ValueError`` where JCBB could need more than
+    :data:`~slam_env.kernels.ekf.association.MAX_PAIRINGS` pairings in one scan
+    (``pairings``, as ``what`` derives it): its search would take seconds a scan."""
+    if pairings > MAX_PAIRINGS:
+        raise ValueError(
+            f"data_association='jcbb' pairs at most {MAX_PAIRINGS} observations a scan, and "
+            f"{what} = {pairings}: its search examines up to {MAX_NODES} hypotheses, each "
+            f"extending the joint innovation covariance's factor in O(pairings²), seconds a "
+            f"scan beyond that; {fix}, or use data_association='nearest_neighbor'"
+        )
 
 
 def landmark_id(value: Any) -> int:

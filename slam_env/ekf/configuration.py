@@ -98,12 +98,7 @@ def checked_config(
     if motion_model == "velocity" and control_noise is None:
         raise ValueError("control_noise (σp, σθ, βp, βθ) is required for motion_model='velocity'")
     Q = checks.covariance(measurement_cov, "measurement_cov", 2, definite=True)
-    if isinstance(max_landmarks, (bool, np.bool_)) or not isinstance(
-        max_landmarks, (int, np.integer)
-    ):
-        raise TypeError(f"max_landmarks must be an int, got {type(max_landmarks).__name__}")
-    if max_landmarks < 0:
-        raise ValueError(f"max_landmarks must be >= 0, got {max_landmarks}")
+    max_landmarks = checks.integer(max_landmarks, "max_landmarks", 0)
     if gate is not None:
         gate = checks.number(gate, "gate")
         if gate <= 0.0:

@@ -251,6 +251,7 @@ class EKFSLAM(BeliefReads):
         # associates, as the joint gates grown with the workspaces).
         self._held = np.empty_like(self._tentativeb)
         self._associates = c.data_association != "known"
+        self._jcbb = c.data_association == "jcbb"
         # The kernels' compiled code pinned to the arrays this filter owns (and to the
         # types of the per-call ones: the outputs it allocates, and z and the IDs as
         # checks.observations returns them), called with those arrays bound: a call
@@ -494,6 +495,11 @@ class EKFSLAM(BeliefReads):
                 f"ids must be None or all -1, got {idk.tolist()}"
             )
         k = idk.shape[0]
+        if self._jcbb:
+            pairings = min(k, int(self._nb[0]))
+            checks.jcbb_pairings(
+                pairings, f"min(rows, landmarks) = min({k}, {int(self._nb[0])})", "pass fewer rows"
+            )
         if k > self._max_obs:
             self._grow_workspace(k)
         status = np.empty(k, _INT8)

@@ -112,6 +112,7 @@ def active_config(
         reward_weights=vars(options.weights),
         num_envs=num_envs,
         association=options.data_association != "known",
+        jcbb=options.data_association == "jcbb",
     )
     options.check_against(config)
     return config

@@ -24,6 +24,7 @@ BAD_COUNTS = {
     "benchmarks.bench_filter": ["--sizes", "10", "0"],
     "benchmarks.bench_geometry": ["--queries", "0"],
     "benchmarks.bench_instructions": ["--steps", "0"],
+    "benchmarks.bench_jcbb": ["--repeats", "0"],
     "benchmarks.bench_rllib": ["--n-envs", "0"],
     "benchmarks.bench_smoothing": ["--steps", "0"],
     "benchmarks.bench_startup": ["--repeats", "0"],

@@ -13,6 +13,10 @@ from slam_env.kernels.base.compiling import kernel
 # The map RMSE of a belief that holds no landmark yet: the one place that says what
 # it reads (a number, not an error, so that every world has one).
 EMPTY_MAP_RMSE = math.nan
+# The pose NEES where it is undefined: a pose covariance that is singular along the
+# error, or beyond float64's resolution (its determinant underflows), gives inf, which
+# no average or plot can use; like the empty map's RMSE, it is left out of info.
+UNDEFINED_NEES = math.nan
 
 
 # The rows of :func:`belief_diagnostics`'s output, in order:
@@ -20,7 +24,7 @@ DIAGNOSTICS = (
     "pose_error",  # m, |estimated − true position|
     "heading_error",  # rad, |wrapped estimated − true heading|
     "map_rmse",  # m, over the landmarks in the state (EMPTY_MAP_RMSE if none)
-    "pose_nees",  # eᵀ P_xx⁻¹ e of the pose error e
+    "pose_nees",  # eᵀ P_xx⁻¹ e of the pose error e (UNDEFINED_NEES if not finite)
     "pose_std",  # m, √(P_xx[0, 0] + P_xx[1, 1]), 0 for a negative trace
 )
 POSE_ERROR, HEADING_ERROR, MAP_RMSE, POSE_NEES, POSE_STD = range(len(DIAGNOSTICS))
@@ -75,9 +79,10 @@ def belief_diagnostics(
         e2 = wrap(x[b, 2] - true_pose[b, 2])
         out[POSE_ERROR, b] = math.hypot(e0, e1)
         out[HEADING_ERROR, b] = abs(e2)
-        out[POSE_NEES, b] = pose_nees(
+        nees = pose_nees(
             e0, e1, e2, P[b, 0, 0], P[b, 0, 1], P[b, 0, 2], P[b, 1, 1], P[b, 1, 2], P[b, 2, 2]
         )
+        out[POSE_NEES, b] = nees if math.isfinite(nees) else UNDEFINED_NEES
         position_var = P[b, 0, 0] + P[b, 1, 1]
         out[POSE_STD, b] = 0.0 if position_var < 0.0 else math.sqrt(position_var)
         k = n[b]

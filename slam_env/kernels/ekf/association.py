@@ -16,7 +16,8 @@ for observation j and landmark i, the innovation ``ν = z_j − h(x, m_i)``, its
   equals, the smallest joint NIS. A depth-first search over the observations in
   order, pruned when the pairings left cannot beat the best found, and stopped after
   :data:`MAX_NODES` hypotheses (the best so far is kept). S_H's Cholesky factor grows
-  by two rows per pairing and is reused down the branch.
+  by two rows per pairing and is reused down the branch; a hypothesis holds at most
+  :data:`MAX_PAIRINGS` pairings (what keeps a scan's search within about a second).
 
 Wide pairings (JCBB, with ``WIDE_SCANS`` > 1). A pairing is *wide* when its
 innovation covariance S spans more than :data:`WIDE_RATIO` times the area of the
@@ -86,6 +87,13 @@ from slam_env.kernels.ekf.codes import (
 from slam_env.kernels.ekf.filter import largest_count
 
 MAX_NODES = 20_000  # hypotheses JCBB examines in one scan, at most
+# Pairings a JCBB hypothesis holds, at most. A node at m pairings extends S_H's factor
+# in ~4m² multiply-adds (the forward substitution of its 2m rows), so a scan costs up
+# to MAX_NODES · 4m²: 3.3e8 at 64 (~0.3 s; the hardest scans of benchmarks/bench_jcbb
+# take 0.13 s), 1.8e10 at the 480 pairings of a ring of landmarks in view (17 s). The
+# filter and the budget refuse a scan or an env that could need more
+# (slam_env.ekf.checks.jcbb_pairings); the kernel never pairs more.
+MAX_PAIRINGS = 64
 CONFIRM_WINDOW = 5  # updates a tentative sighting waits for its confirmation
 # Columns of a tentative sighting: world position, its covariance, its age in updates
 # (negative: the row is free).
@@ -104,13 +112,23 @@ _H, _NU, _ROW, _OBS, _PAIR_WIDTH = 0, 10, 12, 13, 14
 
 
 @kernel
+def most_pairings(max_landmarks: int, max_obs: int) -> int:
+    """The most pairings a hypothesis of JCBB holds: one landmark per observation, no
+    landmark twice, and no more than :data:`MAX_PAIRINGS`."""
+    return min(max_obs, max_landmarks, MAX_PAIRINGS)
+
+
+@kernel
 def association_workspace_sizes(max_landmarks: int, max_obs: int) -> tuple[int, int]:
     """Entries of the float64 and int64 workspaces :func:`associate` needs for up to
-    ``max_landmarks`` landmarks and ``max_obs`` observations per world."""
-    r = 2 * max_obs
+    ``max_landmarks`` landmarks and ``max_obs`` observations per world: the D² table
+    and the candidates, per observation, and JCBB's factor of S_H, which grows with
+    the square of the pairings (:func:`most_pairings`), not of the observations."""
+    pairings = most_pairings(max_landmarks, max_obs)
+    r = 2 * pairings
     table = max_obs * max_landmarks  # D² (floats) and the candidates (ints)
-    floats = table + _PAIR_WIDTH + r * r + 3 * r + max_obs * _PAIR_WIDTH + max_obs + 1
-    ints = table + max_obs + max_landmarks + 4 * max_obs + 2
+    floats = table + _PAIR_WIDTH + r * r + 3 * r + pairings * _PAIR_WIDTH + max_obs + 1
+    ints = table + 2 * max_obs + max_landmarks + 4 * max_obs + 2
     return floats, ints
 
 
@@ -235,26 +253,39 @@ def _extend(
 
 @kernel
 def _nearest_neighbour(
-    d2: np.ndarray, k: int, n: int, gate: float, assigned: np.ndarray, used: np.ndarray
+    d2: np.ndarray,
+    cand: np.ndarray,
+    n_cand: np.ndarray,
+    k: int,
+    assigned: np.ndarray,
+    used: np.ndarray,
+    head: np.ndarray,
 ) -> None:
-    """Greedy pairing by increasing D² within ``gate``, each observation and landmark
-    once (ties go to the lower observation, then the lower landmark)."""
-    for _ in range(min(k, n)):
-        best = gate
+    """Greedy pairing by increasing D² among the candidates (within the gate), each
+    observation and landmark once (ties go to the lower observation, then the lower
+    landmark). Each observation's candidates are sorted by D² (ties by landmark), so
+    its best free one is the first not yet used: ``head[j]`` walks past the used ones,
+    and a pairing costs O(k), not O(k·n)."""
+    for j in range(k):
+        head[j] = 0
+    for _ in range(k):
+        best = math.inf
         bj = -1
-        bi = -1
         for j in range(k):
             if assigned[j] >= 0:
                 continue
-            for i in range(n):
-                if not used[i] and d2[j, i] <= best and (bj < 0 or d2[j, i] < best):
-                    best = d2[j, i]
-                    bj = j
-                    bi = i
+            h = head[j]
+            while h < n_cand[j] and used[cand[j, h]]:
+                h += 1
+            head[j] = h
+            if h < n_cand[j] and (bj < 0 or d2[j, cand[j, h]] < best):
+                best = d2[j, cand[j, h]]
+                bj = j
         if bj < 0:
             return
-        assigned[bj] = bi
-        used[bi] = True
+        i = cand[bj, head[bj]]
+        assigned[bj] = i
+        used[i] = True
 
 
 @kernel
@@ -275,29 +306,31 @@ def _jcbb(
     o: int,
     io: int,
     D: int,
+    most: int,
 ) -> None:
     """Joint Compatibility Branch and Bound over observations ``0..k-1`` with the
     candidates ``cand[j, :n_cand[j]]`` (in increasing D²); the best hypothesis into
     ``assigned`` (landmark or -1). Iterative depth-first search: level j tries each
     candidate of observation j, then none; L and y (S_H's factor and L⁻¹ν_H) grow by
     two rows per pairing and are overwritten on backtracking. The workspaces from
-    ``o``/``io`` have room for D ≥ k observations."""
-    R = 2 * D
+    ``o``/``io`` have room for D ≥ k observations and ``most`` pairings (a hypothesis
+    holds no more)."""
+    R = 2 * most
     L = fwork[o : o + R * R].reshape((R, R))
     o += R * R
     y = fwork[o : o + R]
     o += R
     X = fwork[o : o + 2 * R].reshape((R, 2))
     o += 2 * R
-    pairs = fwork[o : o + D * _PAIR_WIDTH].reshape((D, _PAIR_WIDTH))
-    o += D * _PAIR_WIDTH
+    pairs = fwork[o : o + most * _PAIR_WIDTH].reshape((most, _PAIR_WIDTH))
+    o += most * _PAIR_WIDTH
     nis_at = fwork[o : o + D + 1]
     choice = iwork[io : io + D + 1]
     io += D + 1
     pairs_at = iwork[io : io + D + 1]
     io += D + 1
-    pair_lm = iwork[io : io + D]
-    io += D
+    pair_lm = iwork[io : io + most]
+    io += most
     best_of = iwork[io : io + D]
     best_pairs = 0
     best_nis = math.inf
@@ -331,7 +364,7 @@ def _jcbb(
             continue
         c = choice[j]
         choice[j] = c + 1
-        if c < n_cand[j] and nodes < MAX_NODES:
+        if c < n_cand[j] and nodes < MAX_NODES and m < most:
             i = cand[j, c]
             if used[i]:
                 continue
@@ -350,7 +383,7 @@ def _jcbb(
             nis_at[j] = nis + step
         elif c <= n_cand[j]:  # observation j paired with nothing
             if c < n_cand[j]:
-                choice[j] = n_cand[j] + 1  # out of nodes: no more candidates here
+                choice[j] = n_cand[j] + 1  # out of nodes or pairings: no more here
             j += 1
             choice[j] = 0
             pairs_at[j] = m
@@ -538,9 +571,11 @@ def associate(
     pair = fwork[table : table + _PAIR_WIDTH]
     cand = iwork[:table].reshape((D, M))
     n_cand = iwork[table : table + D]
-    used = iwork[table + D : table + D + M]
+    head = iwork[table + D : table + 2 * D]
+    used = iwork[table + 2 * D : table + 2 * D + M]
     o = table + _PAIR_WIDTH
-    io = table + D + M
+    io = table + 2 * D + M
+    most = most_pairings(M, D)
     for b in range(B):
         for j in range(z.shape[1]):
             assigned[b, j] = -1
@@ -599,9 +634,10 @@ def associate(
                 o,
                 io,
                 D,
+                most,
             )
         else:
-            _nearest_neighbour(d2, k, nb, gate, out, used)
+            _nearest_neighbour(d2, cand, n_cand, k, out, used, head)
         # New landmarks: at once, or on a second sighting.
         confirm = pb[SIGHTINGS] > 1.0
         hb = held[b]

@@ -105,9 +105,18 @@ from slam_env.kernels.ekf.new_landmarks import commit_new_landmarks, new_landmar
 @borrowing_kernel
 def update_workspace_size(dmax: int, max_obs: int) -> int:
     """Entries of the float64 workspace :func:`update` needs for states of ``dmax``
-    rows and up to ``max_obs`` observations per world (``z.shape[1]``)."""
-    r = 2 * max_obs
+    rows and up to ``max_obs`` observations per world (``z.shape[1]``). What grows
+    with the observations' square is sized by :func:`most_applied`, not by the rows."""
+    r = 2 * most_applied(dmax, max_obs)
     return dmax * (2 * r + 6) + N_SMALL * r * r + 2 * r + 13 * max_obs
+
+
+@borrowing_kernel
+def most_applied(dmax: int, max_obs: int) -> int:
+    """The most observations one update of a state of ``dmax`` rows applies: each
+    corrects a landmark or starts one, no landmark twice (distinct IDs, or the
+    association's one pairing per landmark), so at most the ``(dmax − 3) / 2`` slots."""
+    return min(max_obs, (dmax - 3) // 2)
 
 
 @borrowing_kernel
@@ -345,8 +354,10 @@ def update(
     # The workspace: the working mean, the factor rows U, the rows C (Cᵀ = H P, then
     # the new landmarks' cross-covariances), the corrected pose rows PR, the small
     # matrices, ν and G ν, the invariant filter's transport rows (w and c, or the step
-    # of a correction: see .invariant), and the per-observation scratch.
-    R = 2 * K
+    # of a correction: see .invariant), and the per-observation scratch; 2 rows of each
+    # stacked array for an observation applied (corrections, then new landmarks:
+    # most_applied).
+    R = 2 * most_applied(dmax, K)
     o = 0
     xw = work[o : o + dmax]
     o += dmax
