@@ -4,12 +4,14 @@ keep behaviour (a move, a speed-up) shows at once if it did not.
 
 Kernels compiled for another CPU may round a reassociated sum differently, so the file
 holds one set of pins per CPU (``by_cpu``), each taken from the code before the
-redesign (970af96) on a machine of that CPU. ``python -m tests.pinned_streams --write``
-records the current code's hashes for this machine's CPU; with ``--only NAME...`` it
-re-pins those option sets alone and drops them from the other CPUs' pins, which this
-machine cannot recompute (do it only when a change of behaviour is meant, and say so
-in the commit). The test ``tests/test_pinned_streams.py`` holds the code to the pins of
-the CPU it runs on.
+redesign (970af96). ``python -m tests.pinned_streams --write`` records the current
+code's hashes for this machine's CPU; with ``--only NAME...`` it re-pins those option
+sets alone and drops them from the other CPUs' pins (do it only when a change of
+behaviour is meant, and say so in the commit). Another CPU's pins are recomputed here
+by compiling for it, ``NUMBA_CPU_NAME=znver3 NUMBA_CPU_FEATURES="" NUMBA_CACHE_DIR=DIR``
+before the same command (an empty feature list takes LLVM's own for that CPU): that
+reproduced every znver3 pin on a znver5 machine. The test
+``tests/test_pinned_streams.py`` holds the code to the pins of the CPU it runs on.
 """
 
 from __future__ import annotations
@@ -134,7 +136,7 @@ def machine() -> dict[str, str]:
     import numba
 
     return {
-        "cpu": llvm.get_host_cpu_name(),
+        "cpu": numba.config.CPU_NAME or llvm.get_host_cpu_name(),
         "machine": platform.machine(),
         "numpy": np.__version__,
         "numba": numba.__version__,
