@@ -3,6 +3,7 @@
     .venv/bin/python -m benchmarks.bench_consistency [--runs 30] [--steps 500]
         [--odometry-scale 1] [--seed 0] [--variants known/standard ideal jcbb/fej ...]
         [--clutter 0]
+    .venv/bin/python -m benchmarks.bench_consistency --variants known/oc known/isam2 ideal
     .venv/bin/python -m benchmarks.bench_consistency --scenario ukfm-slam2d
         [--runs 100] [--steps 2500] [--seed 0]
 
@@ -35,6 +36,13 @@ filter's filtered trajectory and final map. Variants whose ``data_association`` 
 only the detections the env labelled (ID ≥ 0: clutter, where the env has it, is left
 out).
 
+The row ``known/isam2`` (:data:`SMOOTHER`, asked for by name: it needs the ``gtsam``
+extra) is the smoothing belief, :class:`slam_env.smoothing.ISAM2SLAM` with its defaults,
+on the same data and told the same (the filter's keyword arguments less the gate): a
+``predict`` and an ``update`` every step (a pose variable per step, as the batch
+smoother has), its pose NEES from ``pose_cov``, the current pose's block of its joint
+marginal covariance (past poses integrated out).
+
 The row ``ideal`` (:data:`IDEAL`) is the yardstick of the ``in band`` column: the
 "ideal EKF" of Huang, Mourikis & Roumeliotis ("Analysis and improvement of the
 consistency of extended Kalman filter based SLAM", ICRA 2008), the known-ID filter
@@ -50,10 +58,13 @@ The table:
 * ``in band``: the share of steps 1..T whose pose NEES averaged over the runs lies in
   the two-sided 95% χ² band (3·runs dof, divided by runs; slam_env.belief.metrics);
 * ``mean NEES``: the pose NEES averaged over runs and steps (3 for a consistent filter);
-* ``EKF RMSE``: the final map RMSE (m) over the landmarks in the filter's map, mean over
-  runs; ``LS RMSE``: the smoother's on the same runs; ``ratio``: EKF / LS. A run in
-  which a filter refuses a call (``FloatingPointError``) is left out of its row and
-  counted.
+* ``map RMSE``: the final map RMSE (m) over the landmarks in the belief's map, mean
+  over runs; ``LS RMSE``: the batch smoother's on the same runs; ``ratio``: the two's.
+  A run in which a belief refuses a call (``FloatingPointError``) is left out of its
+  row and counted;
+* ``ms/step``: the belief's CPU time (``time.process_time``: on a shared machine the
+  wall clock counts the neighbours too) over the runs, per step: predict, update and
+  the reads the NEES and the map take.
 
 For the variants that associate, ``correct`` is the share of the detections given to
 the right landmark (or correctly starting one, or clutter left out), and ``wrong``,
@@ -86,6 +97,7 @@ from references.smoother import Episode, smooth
 from slam_env.belief.metrics import map_rmse, nees, nees_band, pose_error, share_in_nees_band
 from slam_env.config import make_config
 from slam_env.ekf import DEFAULT_GATE, EKFSLAM, LINEARIZATIONS, UpdateResult
+from slam_env.extras import MissingExtra, require
 from slam_env.kernels.ekf.association_score import SCORE_NAMES, score_association
 from slam_env.sensing.raw_observation import unpack_detections
 from slam_env.world.layouts import LANDMARK_POST_RADIUS
@@ -119,6 +131,8 @@ VARIANTS: dict[str, dict[str, Any]] = {
 BASELINE = "known/standard"
 # The row of the ideal EKF (references/ideal_ekf.py, every Jacobian at the truth).
 IDEAL = "ideal"
+# The row of the smoothing belief (slam_env.smoothing.ISAM2SLAM; the gtsam extra).
+SMOOTHER = "known/isam2"
 
 SEEN_CLOSE = 3.0  # m, a landmark detected from closer than this needs no visit
 GOAL_REACHED = 0.4  # m of path left at which the driver takes the next goal
@@ -289,17 +303,28 @@ def filter_kwargs(recording: Recording) -> dict[str, Any]:
     }
 
 
+def smoother_kwargs(recording: Recording) -> dict[str, Any]:
+    """``ISAM2SLAM``'s noise-matched arguments: :func:`filter_kwargs` less the gate (the
+    smoother gates nothing)."""
+    kwargs = filter_kwargs(recording)
+    kwargs.pop("gate")
+    return kwargs
+
+
 def hides_ids(kwargs: dict[str, Any]) -> bool:
     """Whether the variant associates by itself (it then gets no IDs)."""
     return kwargs.get("data_association", "known") != "known"
 
 
-# The rows the table can have, in its order: the ideal EKF after the known-ID filters.
+# The rows the table can have, in its order: the smoother and the ideal EKF after the
+# known-ID filters; every row but the smoother's by default (it needs an extra).
 ROWS = (
     *(name for name in VARIANTS if not hides_ids(VARIANTS[name])),
+    SMOOTHER,
     IDEAL,
     *(name for name in VARIANTS if hides_ids(VARIANTS[name])),
 )
+DEFAULT_ROWS = tuple(name for name in ROWS if name != SMOOTHER)
 
 
 @dataclass
@@ -333,13 +358,14 @@ def score(
 
 def follow(
     recording: Recording,
-    belief: EKFSLAM | IdealEKF,
+    belief: Any,
     step: Callable[[int, np.ndarray, np.ndarray], UpdateResult | None],
     hide: bool,
 ) -> FilterRun:
     """Drive ``belief`` over the recorded episode: ``step(t, z, ids)`` predicts and
     updates it with step t's control and detections (all of them when ``hide``, else
-    the labelled ones) and returns the update's result (None without detections)."""
+    the labelled ones) and returns the update's result (None without detections).
+    ``belief`` is an :class:`EKFSLAM`, an :class:`IdealEKF` or an ``ISAM2SLAM``."""
     T = recording.episode.n_steps
     nees_t = np.empty(T)
     poses = np.empty((T + 1, 3))
@@ -398,6 +424,31 @@ def run_ideal(recording: Recording) -> FilterRun:
     return follow(recording, f, step, hide=False)
 
 
+def run_smoother(recording: Recording) -> FilterRun:
+    """The smoothing belief (``ISAM2SLAM``, its defaults) over the recorded episode,
+    known IDs, noise-matched as the filters; an update every step, with or without
+    detections, so that every step has its pose variable."""
+    from slam_env.smoothing import ISAM2SLAM  # the gtsam extra, checked in parse_args
+
+    belief = ISAM2SLAM(**smoother_kwargs(recording))
+    controls = recording.episode.controls
+
+    def step(t: int, z: np.ndarray, ids: np.ndarray) -> UpdateResult:
+        belief.predict(controls[t - 1])
+        return belief.update(z, ids)
+
+    return follow(recording, belief, step, hide=False)
+
+
+def run_row(recording: Recording, name: str) -> FilterRun:
+    """The belief of row ``name`` (:data:`ROWS`) over the recorded episode."""
+    if name == IDEAL:
+        return run_ideal(recording)
+    if name == SMOOTHER:
+        return run_smoother(recording)
+    return run_filter(recording, VARIANTS[name])
+
+
 # --------------------------------------------------------------------------- main
 
 
@@ -405,13 +456,16 @@ def run_ideal(recording: Recording) -> FilterRun:
 class Tally:
     """What one variant collected: per run it completed (``runs``, indices into the
     episodes), the pose NEES per step and the final map RMSE; ``failures`` counts the
-    runs in which the filter refused a call (``FloatingPointError``)."""
+    runs in which the belief refused a call (``FloatingPointError``); ``seconds`` and
+    ``steps``: the CPU time it took and the steps it ran, over every run."""
 
     runs: list[int] = field(default_factory=list)
     nees: list[np.ndarray] = field(default_factory=list)
     rmse: list[float] = field(default_factory=list)
     scores: np.ndarray = field(default_factory=lambda: np.zeros(len(SCORE_NAMES), np.int64))
     failures: int = 0
+    seconds: float = 0.0
+    steps: int = 0
 
 
 @dataclass
@@ -439,13 +493,15 @@ def evaluate(
         start = time.perf_counter()
         runs: dict[str, FilterRun] = {}
         for name in dict.fromkeys([BASELINE, *rows]):
+            cpu = time.process_time()
             try:
-                runs[name] = (
-                    run_ideal(recording) if name == IDEAL else run_filter(recording, VARIANTS[name])
-                )
+                runs[name] = run_row(recording, name)
             except FloatingPointError:
                 if name in tallies:
                     tallies[name].failures += 1
+            if name in tallies:
+                tallies[name].seconds += time.process_time() - cpu
+                tallies[name].steps += recording.episode.n_steps
         for name, run in runs.items():
             if name in tallies:
                 tallies[name].runs.append(r)
@@ -491,8 +547,8 @@ def print_table(
     )
     w = max([16, *(len(name) + 2 for name in tallies)])
     header = (
-        f"{'variant':<{w}}{'in band':>9}{'mean NEES':>11}{'EKF RMSE':>10}{'LS RMSE':>9}"
-        f"{'ratio':>7}{'correct':>9}{'wrong':>7}{'missed':>8}{'dup':>5}"
+        f"{'variant':<{w}}{'in band':>9}{'mean NEES':>11}{'map RMSE':>10}{'LS RMSE':>9}"
+        f"{'ratio':>7}{'correct':>9}{'wrong':>7}{'missed':>8}{'dup':>5}{'ms/step':>9}"
     )
     print(header)
     print("-" * len(header))
@@ -503,6 +559,7 @@ def print_table(
             float(np.mean(values[np.isfinite(values)])) if np.isfinite(values).any() else math.nan
         )
         ekf = float(np.mean(tally.rmse)) if tally.rmse else math.nan
+        ms = 1e3 * tally.seconds / max(tally.steps, 1)
         best = float(np.mean([ls.rmse[r] for r in tally.runs])) if tally.runs else math.nan
         note = f"  ({tally.failures} runs failed, left out)" if tally.failures else ""
         correct, wrong, missed, dup = tally.scores.tolist()
@@ -513,7 +570,7 @@ def print_table(
             association = f"{'-':>9}{'-':>7}{'-':>8}{'-':>5}"
         print(
             f"{name:<{w}}{100 * band:>8.1f}%{mean_nees:>11.2f}{ekf:>10.4f}"
-            f"{best:>9.4f}{ekf / best:>7.2f}{association}{note}"
+            f"{best:>9.4f}{ekf / best:>7.2f}{association}{ms:>9.3f}{note}"
         )
 
 
@@ -542,8 +599,8 @@ def parse_args(argv: Sequence[str] | None = None) -> tuple[argparse.Namespace, g
     parser.add_argument(
         "--variants",
         nargs="+",
-        default=list(ROWS),
-        help=f"any of {', '.join(ROWS)} (default all)",
+        default=list(DEFAULT_ROWS),
+        help=f"any of {', '.join(ROWS)} (default all but {SMOOTHER}, which needs gtsam)",
     )
     parser.add_argument("--clutter", type=float, default=0.0, help="the env's clutter_rate")
     args = parser.parse_args(argv)
@@ -558,7 +615,7 @@ def parse_args(argv: Sequence[str] | None = None) -> tuple[argparse.Namespace, g
             for flag, value, default in (
                 ("--odometry-scale", args.odometry_scale, 1.0),
                 ("--clutter", args.clutter, 0.0),
-                ("--variants", args.variants, list(ROWS)),
+                ("--variants", args.variants, list(DEFAULT_ROWS)),
             )
             if value != default
         ]
@@ -570,6 +627,11 @@ def parse_args(argv: Sequence[str] | None = None) -> tuple[argparse.Namespace, g
     unknown = [v for v in args.variants if v not in ROWS]
     if unknown:
         parser.error(f"unknown variants {unknown}; choose from {list(ROWS)}")
+    if SMOOTHER in args.variants:
+        try:
+            require("gtsam", f"--variants {SMOOTHER}")
+        except MissingExtra as err:
+            parser.error(str(err))
     try:  # the env's own checks (ranges, the noise budget), before any episode is run
         env = gym.make(
             ENV_ID, max_episode_steps=args.steps, **env_options(args.odometry_scale, args.clutter)

@@ -44,14 +44,12 @@ from agents.common.arguments import non_negative_int, positive_int  # argparse o
 
 
 def estimator_kwargs(recording: Any, args: argparse.Namespace) -> dict[str, Any]:
-    """ISAM2SLAM's arguments for one recorded episode: the noise-matched models (as
-    ``bench_consistency.filter_kwargs``, less the filter-only gate) and the options."""
-    from benchmarks.bench_consistency import filter_kwargs
+    """ISAM2SLAM's arguments for one recorded episode: the noise-matched models
+    (``bench_consistency.smoother_kwargs``) and the options."""
+    from benchmarks.bench_consistency import smoother_kwargs
 
-    kwargs = filter_kwargs(recording)
-    kwargs.pop("gate")
     return {
-        **kwargs,
+        **smoother_kwargs(recording),
         "motion_factor": args.motion_factor,
         "relinearize_threshold": args.relinearize_threshold,
         "relinearize_skip": args.relinearize_skip,
