@@ -26,16 +26,24 @@ import numpy as np
 from slam_env.core.batch import BatchCore
 from slam_env.world.layouts import Layout
 
-__all__ = ["ChunkedCore", "chunk_sizes", "default_threads", "thread_count"]
+__all__ = ["ENVS_PER_THREAD", "ChunkedCore", "chunk_sizes", "default_threads", "thread_count"]
+
+
+# The fewest sub-envs a thread is given by default. Below it the threads' hand-offs of
+# the GIL between the kernel calls cost more than they save: on an idle 2-core machine
+# T = 2 stepped ActiveSLAM-v0 at 0.66× T = 1's rate at B = 64, 0.71× at 128, 1.23× at
+# 256 and 1.30× at 512 (benchmarks/bench_env.py --threads 1 2).
+ENVS_PER_THREAD = 128
 
 
 def default_threads(num_envs: int) -> int:
-    """The cores this process may run on (its CPU affinity), at most ``num_envs``."""
+    """The cores this process may run on (its CPU affinity), but no more than give
+    each thread :data:`ENVS_PER_THREAD` sub-envs: 1 below 256 sub-envs."""
     try:
         cores = len(os.sched_getaffinity(0))
     except AttributeError:  # no affinity on this OS (macOS, Windows)
         cores = os.cpu_count() or 1
-    return max(1, min(cores, num_envs))
+    return max(1, min(cores, num_envs // ENVS_PER_THREAD))
 
 
 def thread_count(num_threads: Any, num_envs: int) -> int:
@@ -46,7 +54,7 @@ def thread_count(num_threads: Any, num_envs: int) -> int:
     if isinstance(num_threads, bool) or not isinstance(num_threads, (int, np.integer)):
         raise TypeError(
             f"num_threads must be an int from 1 to num_envs ({num_envs}) or None (the "
-            f"cores this process may use), got {type(num_threads).__name__} {num_threads!r}"
+            f"default), got {type(num_threads).__name__} {num_threads!r}"
         )
     if not 1 <= num_threads <= num_envs:
         raise ValueError(

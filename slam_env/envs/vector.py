@@ -125,7 +125,9 @@ class SlamVectorEnv(VectorEnv):
             sub-env, the single env's frame of the same state).
         num_threads: T, how many chunks of the sub-envs are stepped concurrently: an
             int from 1 to B, or ``None`` (default) for the cores this process may run on
-            (``len(os.sched_getaffinity(0))``), at most B. T = 1 steps all B sub-envs
+            (``len(os.sched_getaffinity(0))``) but at most B // 128
+            (:func:`slam_env.core.chunks.default_threads`: below 128 sub-envs a thread,
+            threads cost more than they save), so 1 below 256. T = 1 steps all B sub-envs
             with one core in the calling thread; T > 1 splits them into T contiguous
             chunks (sizes as even as can be), each a core of its own
             (:class:`slam_env.core.chunks.ChunkedCore`): chunk 0 in the calling thread,

@@ -56,14 +56,18 @@ def test_each_thread_steps_a_core_of_its_own_over_its_chunk(env_id: str, kind: t
         venv.close()
 
 
-def test_the_default_is_the_cores_the_process_may_use_at_most_b(monkeypatch) -> None:
+def test_the_default_is_the_cores_the_process_may_use_with_128_envs_a_thread(
+    monkeypatch,
+) -> None:
+    from slam_env.core.chunks import ENVS_PER_THREAD, default_threads
+
     monkeypatch.setattr("os.sched_getaffinity", lambda pid: set(range(8)), raising=False)
-    assert native(LANDMARKS, 5).num_threads == 5
-    assert native(LANDMARKS, 12).num_threads == 8
-    assert native(LANDMARKS, 1).num_threads == 1
-    monkeypatch.setattr("os.sched_getaffinity", lambda pid: {0}, raising=False)
-    venv = native(LANDMARKS, 4)
+    assert ENVS_PER_THREAD == 128
+    assert [default_threads(b) for b in (1, 5, 255, 256, 383, 384, 4096)] == [1, 1, 1, 2, 2, 3, 8]
+    venv = native(LANDMARKS, 5)
     assert venv.num_threads == 1 and isinstance(venv.core, RawCore)
+    monkeypatch.setattr("os.sched_getaffinity", lambda pid: {0}, raising=False)
+    assert default_threads(4096) == 1
 
 
 @pytest.mark.parametrize(
