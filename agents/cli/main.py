@@ -273,6 +273,12 @@ def _run_train(args: argparse.Namespace) -> int:
             f"{done} {unit} in {s['wall_time_s']:.1f} s "
             f"({rate} {unit}/s with {s['n_envs']} envs, {s['vectorization']})"
         )
+        if "sampler_threads" in s:
+            workers = "process" if s["vectorization"] == "subproc" else "thread"
+            console.print(
+                f"sampler: {_count(s['sampler_threads'], workers)} over {s['n_envs']} envs; "
+                f"learner: torch on {_count(s['torch_threads'], 'thread')}"
+            )
         if s["env_step_share"] is not None:
             console.print(
                 f"wall time: {100 * s['env_step_share']:.0f}% env stepping, "
@@ -280,6 +286,11 @@ def _run_train(args: argparse.Namespace) -> int:
                 f"{100 * s['other_share']:.0f}% the rest"
             )
     return 0
+
+
+def _count(n: int, noun: str) -> str:
+    """``1 thread``, ``2 threads``, ``2 processes``."""
+    return f"{n} {noun}" if n == 1 else f"{n} {noun}{'es' if noun.endswith('s') else 's'}"
 
 
 def _run_evaluate(args: argparse.Namespace) -> int:

@@ -63,6 +63,16 @@ def write_summary(out: Path, summary: dict[str, Any], interrupted: bool, model: 
         raise KeyboardInterrupt(f"training interrupted; model saved to {model}")
 
 
+def sampler_threads(vectorization: str, n_envs: int, vec_env: Any) -> int:
+    """How many threads (the native vector env's ``num_threads``) or processes
+    (``subproc``: one a sub-env) step the training's sub-envs; 1 for ``dummy``."""
+    if vectorization == "subproc":
+        return n_envs
+    while hasattr(vec_env, "venv"):  # SB3's wrappers, then the native vector env itself
+        vec_env = vec_env.venv
+    return int(getattr(vec_env, "num_threads", 1))
+
+
 def finite(x: float) -> float | None:
     return float(x) if math.isfinite(x) else None
 

@@ -32,7 +32,13 @@ from typing import Any
 
 from agents.learning.config import TrainConfig, as_train_config, write_config
 from agents.learning.metrics import BEST_MODEL_CRITERION
-from agents.learning.runs import check_train_env, finite, finite_map, write_summary
+from agents.learning.runs import (
+    check_train_env,
+    finite,
+    finite_map,
+    sampler_threads,
+    write_summary,
+)
 from agents.learning.runs import model_path as checked_model_path
 from agents.learning.sb3.goal_training import train_goal_choice
 from agents.learning.sb3.runs import (
@@ -87,6 +93,8 @@ def train(config: TrainConfig | Mapping[str, Any] | str | Path | None = None) ->
             "env_steps_per_s": round(model.num_timesteps / wall, 1) if wall > 0 else None,
             "n_envs": cfg.n_envs,
             "vectorization": cfg.vectorization,
+            "sampler_threads": sampler_threads(cfg.vectorization, cfg.n_envs, train_env),
+            "torch_threads": cfg.torch_threads,
             **shares,
             "interrupted": interrupted,
             "last_eval_mean_reward": finite(evals[0].last_mean_reward) if evals else None,

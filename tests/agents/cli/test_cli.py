@@ -143,7 +143,9 @@ def test_cli_train(tmp_path, capsys):
     assert (saved["total_timesteps"], saved["n_envs"], saved["seed"]) == (64, 1, 4)
     assert saved["out_dir"] == str(out) and saved["progress_bar"] is False
     assert not (out / "checkpoints").exists() and not (out / "tb").exists()
-    assert "steps/s" in capsys.readouterr().out
+    printed = capsys.readouterr().out
+    assert "steps/s" in printed
+    assert "sampler: 1 thread over 1 envs; learner: torch on 1 thread" in printed
 
 
 # ---------------------------------------------------------------------- bad arguments

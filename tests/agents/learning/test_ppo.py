@@ -130,6 +130,8 @@ def test_train_writes_model_config_checkpoints_evaluations_and_logs(trained):
     summary = json.loads((out / "training_summary.json").read_text())
     assert summary["timesteps"] == 128 and summary["env_steps_per_s"] > 0
     assert summary["vectorization"] == "native"  # the default
+    # One thread steps the few sub-envs (at least 128 a thread), one runs torch.
+    assert (summary["sampler_threads"], summary["torch_threads"]) == (1, 1)
     # Where the wall time went: env stepping, gradient updates and the rest add up.
     shares = [summary[f"{k}_share"] for k in ("env_step", "gradient_updates", "other")]
     assert all(0.0 < x < 1.0 for x in shares) and sum(shares) == pytest.approx(1.0, abs=1e-3)

@@ -81,3 +81,18 @@ def test_ppo_learns_on_the_native_vector_env() -> None:
 def test_only_same_step_vector_envs_are_adapted() -> None:
     with pytest.raises(ValueError, match="SAME_STEP"):
         SB3VectorEnv(gym.make_vec(ENV_ID, num_envs=2))
+
+
+def test_the_training_reports_the_threads_that_step_its_sub_envs():
+    from stable_baselines3.common.vec_env import VecMonitor
+
+    from agents.learning.runs import sampler_threads
+    from agents.learning.sb3.vector_env import make_sb3_vec_env
+
+    venv = VecMonitor(make_sb3_vec_env("slam_env/Landmarks-v0", 3, seed=0, num_threads=2))
+    try:
+        assert sampler_threads("native", 3, venv) == 2
+    finally:
+        venv.close()
+    assert sampler_threads("subproc", 6, object()) == 6  # a process a sub-env
+    assert sampler_threads("dummy", 6, object()) == 1
