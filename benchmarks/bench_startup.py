@@ -54,14 +54,8 @@ env.step(env.action_space.sample())
 mark()
 counts = {"kernels": 0, "specialisations": 0, "compiled": 0, "loaded": 0}
 if env_id.startswith("slam_env"):
-    from slam_env.kernels.base.compiling import KERNELS
-    used = [k for k in KERNELS if k.signatures]
-    counts = {
-        "kernels": len(used),
-        "specialisations": sum(len(k.signatures) for k in used),
-        "compiled": sum(sum(k.stats.cache_misses.values()) for k in used),
-        "loaded": sum(sum(k.stats.cache_hits.values()) for k in used),
-    }
+    from slam_env.kernels.base.compiling import kernel_counts
+    counts = kernel_counts()
 print(json.dumps({
     "wall": [b - a for a, b in zip(wall, wall[1:])],
     "cpu": [b - a for a, b in zip(cpu, cpu[1:])],

@@ -16,7 +16,7 @@ import numpy as np
 
 from slam_env.ekf import EKFSLAM
 from slam_env.extras import MissingExtra
-from slam_env.kernels.base.compiling import KERNELS, cache_directory
+from slam_env.kernels.base.compiling import cache_directory, kernel_counts
 
 IDS = ("slam_env/Landmarks-v0", "slam_env/ActiveSLAM-v0")
 
@@ -48,12 +48,7 @@ def warm() -> dict[str, int]:
     )
     f.predict((0.1, 0.5, 0.0))
     f.update(np.array([[2.0, 0.3], [3.0, -0.2]]), np.array([0, 2]))
-    used = [k for k in KERNELS if k.signatures]
-    return {
-        "kernels": len(used),
-        "specialisations": sum(len(k.signatures) for k in used),
-        "compiled": sum(sum(k.stats.cache_misses.values()) for k in used),
-    }
+    return kernel_counts()
 
 
 def main() -> None:

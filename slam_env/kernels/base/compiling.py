@@ -40,6 +40,7 @@ __all__ = [
     "cache_directory",
     "inline_kernel",
     "kernel",
+    "kernel_counts",
     "summing_kernel",
 ]
 
@@ -150,6 +151,19 @@ def _caching_in(cache: str) -> Iterator[None]:
         numba.config.CACHE_DIR = before[0]
         if before[1] is not None:
             numba.config.CACHE_LOCATOR_CLASSES = before[1]
+
+
+def kernel_counts() -> dict[str, int]:
+    """What numba has done in this process for the kernels used so far: how many
+    ``kernels`` and ``specialisations`` (signatures), and how many of those it
+    ``compiled`` and ``loaded`` from its cache."""
+    used = [k for k in KERNELS if k.signatures]
+    return {
+        "kernels": len(used),
+        "specialisations": sum(len(k.signatures) for k in used),
+        "compiled": sum(sum(k.stats.cache_misses.values()) for k in used),
+        "loaded": sum(sum(k.stats.cache_hits.values()) for k in used),
+    }
 
 
 def kernel(fn: F) -> F:
