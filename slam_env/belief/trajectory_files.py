@@ -15,6 +15,8 @@ from typing import Any
 
 import numpy as np
 
+from slam_env.ekf.checks import real_array
+
 __all__ = ["TUM_HEADER", "planar_tum_rows", "write_map_csv", "write_tum"]
 
 #: The comment line opening a TUM file (evo and the TUM tools skip lines starting with #).
@@ -26,11 +28,9 @@ MAP_COLUMNS = ("id", "true_x", "true_y", "est_x", "est_y")
 
 def _finite_array(value: Any, shape: tuple[int | None, ...], name: str) -> np.ndarray:
     """``value`` as a float64 array of ``shape`` (None: any length), all finite;
-    ``TypeError``/``ValueError`` naming ``name`` otherwise."""
-    try:
-        array = np.asarray(value, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise TypeError(f"{name} must be an array of numbers, got {type(value).__name__}") from None
+    ``TypeError``/``ValueError`` naming ``name`` otherwise (real numbers only, as the
+    filter's own inputs: :func:`slam_env.ekf.checks.real_array`)."""
+    array = real_array(value, name)
     if array.ndim != len(shape) or any(
         want is not None and got != want for got, want in zip(array.shape, shape, strict=True)
     ):

@@ -162,6 +162,14 @@ def test_bad_trajectories_are_refused_before_a_file_is_written(
     assert not path.exists()
 
 
+@pytest.mark.parametrize("poses", [[[True, False, True]], [["0", "0", "0"]], [[0.0, 0.0, 1j]]])
+def test_trajectories_of_anything_but_real_numbers_are_refused(tmp_path, poses):
+    path = tmp_path / "t.tum"
+    with pytest.raises(TypeError, match="poses must be an array of numbers"):
+        write_tum(path, [0.0], poses)
+    assert not path.exists()
+
+
 def test_bad_maps_are_refused_before_a_file_is_written(tmp_path):
     path = tmp_path / "map.csv"
     with pytest.raises(ValueError, match="must not repeat an ID"):
