@@ -7,7 +7,7 @@ episode, and map accuracy against the batch least-squares optimum.
         [--repeats 3] [--skip-timing] [--skip-growth] [--skip-accuracy]
 
 The data is ``slam_env/Landmarks-v0`` on the default world (20 landmarks), driven by
-``bench_consistency``'s ``TourDriver`` (a tour of the landmarks from the true pose and
+``consistency_episodes``' ``TourDriver`` (a tour of the landmarks from the true pose and
 back home, round again), recorded once per seed; every estimator gets the same
 readings, the labelled detections with their IDs, noise-matched (the env's own α1..α4
 and Q, the true start with zero covariance).
@@ -92,7 +92,7 @@ def least(make: Any, recording: Any, read: bool, repeats: int) -> Any:
 def record(seed: int, steps: int, scale: float) -> Any:
     import gymnasium as gym
 
-    from benchmarks.bench_consistency import ENV_ID, env_options, record_episode
+    from benchmarks.consistency_episodes import ENV_ID, env_options, record_episode
 
     with gym.make(ENV_ID, max_episode_steps=steps, **env_options(scale, 0.0)) as env:
         return record_episode(env, seed, steps)

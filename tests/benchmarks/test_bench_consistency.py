@@ -12,7 +12,7 @@ import gymnasium as gym
 import numpy as np
 import pytest
 
-from benchmarks import bench_consistency
+from benchmarks import bench_consistency, consistency_episodes
 from slam_env import extras
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -65,8 +65,8 @@ def test_the_smoother_row_is_printed_beside_the_filters() -> None:
 def test_the_smoothers_map_is_the_truth_on_a_noise_free_run() -> None:
     # (almost) no odometry or measurement noise: the map must land on the truth
     options = {"alphas": (1e-12,) * 4, "range_std": 1e-6, "bearing_std": 1e-6}
-    with gym.make(bench_consistency.ENV_ID, max_episode_steps=40, **options) as env:
-        recording = bench_consistency.record_episode(env, seed=3, steps=40)
+    with gym.make(consistency_episodes.ENV_ID, max_episode_steps=40, **options) as env:
+        recording = consistency_episodes.record_episode(env, seed=3, steps=40)
     run = bench_consistency.run_smoother(recording)
     assert len(run.landmarks) > 0 and run.rmse < 1e-4
     assert np.isfinite(run.nees).all() and run.poses.shape == (41, 3)
