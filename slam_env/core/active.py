@@ -43,6 +43,8 @@ from slam_env.kernels.belief.diagnostics import (
 )
 from slam_env.kernels.belief.divergence import DIVERGENCE_REJECTIONS, diverged
 from slam_env.kernels.ekf.association_score import SCORE_NAMES
+from slam_env.smoothing.batch import SmootherBatch
+from slam_env.smoothing.isam2 import ISAM2SLAM
 from slam_env.world.layouts import Layout
 
 # Rows of the diagnostics kernel's output, by name.
@@ -98,6 +100,17 @@ class ActiveCore(BatchCore):
             wide_pairing_scans=options.wide_pairing_scans,
         )
         self.filters = FilterBatch(b, template, d)
+        # belief="isam2": the filters' state holds the smoothers' beliefs, which their
+        # step (prediction, gate, association) reads and the smoothers then replace.
+        self.smoothers: SmootherBatch | None = None
+        if options.belief == "isam2":
+            self.smoothers = SmootherBatch(
+                self.filters,
+                relinearize_threshold=options.smoothing_relinearize_threshold,
+                relinearize_skip=options.smoothing_relinearize_skip,
+                keyframes=options.smoothing_keyframes,
+                window=options.smoothing_window,
+            )
         # Where the filters associate: the true landmark of each filter landmark, the
         # map size before the update, and the association's scores (step, episode).
         self.associates = template.associates
@@ -252,6 +265,8 @@ class ActiveCore(BatchCore):
             self.truth[b] = np.nan
             self.truth[b, worlds.landmark_ids[b]] = worlds.landmarks[b]
             filters.reset(b, worlds.poses[b])
+            if self.smoothers is not None:
+                self.smoothers.reset(b, worlds.poses[b], filters)
             self.slot_truth[b] = -1
             self.score_episode[b] = 0
             self.failed[b] = False
@@ -266,6 +281,8 @@ class ActiveCore(BatchCore):
         if not filter_step(*filtering, filters.workspaces, self.associates, *args.filter_books):
             filters.grow_for(self.updated)
             filter_step(*filtering, filters.workspaces, self.associates, *args.filter_books)
+        if self.smoothers is not None:
+            self.smoothers.follow(filters, touched, stepping, self.failed)
         self._observe(touched, stepping)
         return layouts
 
@@ -374,8 +391,16 @@ class ActiveCore(BatchCore):
         return info, masks
 
     def filter(self, index: int) -> EKFSLAM:
-        """Sub-env ``index``'s filter, over the batch's storage."""
+        """Sub-env ``index``'s filter, over the batch's storage (with
+        ``belief="isam2"``, the smoothing belief as a Gaussian: see :meth:`smoother`)."""
         return self.filters.filter(index)
+
+    def smoother(self, index: int) -> ISAM2SLAM:
+        """Sub-env ``index``'s smoothing belief (``belief="isam2"``); ``ValueError``
+        with the EKF belief."""
+        if self.smoothers is None:
+            raise ValueError("this env's belief is 'ekf': it has no smoother (belief='isam2')")
+        return self.smoothers[index]
 
     def belief_overlay(self, index: int, true_landmarks: Any = None) -> BeliefOverlay:
         """What the pictures draw of sub-env ``index``'s belief (and ``true_landmarks``

@@ -14,6 +14,10 @@ from slam_env.belief.reward import ActiveSLAMRewardWeights
 from slam_env.config import EnvConfig, check_options, option, plain
 from slam_env.ekf import CORRECTION_MODES, DATA_ASSOCIATIONS, DEFAULT_GATE, LINEARIZATIONS, checks
 
+# The beliefs ActiveSLAM-v0 can hand its agents: the EKF-SLAM filter, or the smoothing
+# belief over the pose graph (slam_env.smoothing; the gtsam extra).
+BELIEFS = ("ekf", "isam2")
+
 # Proximity beams in the active-SLAM observation, unless the options set them.
 DEFAULT_SCAN_BEAMS = 16
 # The world options whose default differs here: a policy must see obstacles, which the
@@ -126,6 +130,34 @@ class ActiveSLAMOptions:
         "with 'jcbb', a loop-closing pairing waits for that many consecutive scans",
         low=1,
     )
+    belief: str = option(
+        "ekf",
+        "the EKF-SLAM filter, or iSAM2 smoothing over the pose graph (the gtsam extra), "
+        "its mean and joint marginal handed on as the filter's are",
+        choices=BELIEFS,
+    )
+    smoothing_relinearize_threshold: float = option(
+        0.02,
+        "with belief='isam2': a variable whose linear step exceeds this is relinearised "
+        "(GTSAM's default 0.1 left the map 5% off the optimum)",
+        "m, rad",
+        low=0,
+    )
+    smoothing_relinearize_skip: int = option(
+        1, "with belief='isam2': updates between relinearisation checks", low=1
+    )
+    smoothing_keyframes: int | None = option(
+        None,
+        "with belief='isam2': a pose variable every that many steps (and at every new "
+        "landmark), the detections between left out; None: every step",
+        low=1,
+    )
+    smoothing_window: int | None = option(
+        None,
+        "with belief='isam2': keep the latest that many pose variables, marginalise the "
+        "older; None: keep them all",
+        low=1,
+    )
     weights: ActiveSLAMRewardWeights = field(init=False)
 
     def __post_init__(self) -> None:
@@ -140,6 +172,12 @@ class ActiveSLAMOptions:
         checks.choice("linearization", values["linearization"], LINEARIZATIONS)
         checks.new_landmark_sightings(values["new_landmark_sightings"])
         checks.wide_pairing_scans(values["wide_pairing_scans"], values["data_association"])
+        checks.choice("belief", values["belief"], BELIEFS)
+        if values["belief"] == "isam2" and values["linearization"] != "standard":
+            raise ValueError(
+                f"linearization={values['linearization']!r} is the filter's: belief='isam2' "
+                "relinearises its whole graph (leave linearization='standard')"
+            )
         gate = values["gate"]
         if gate is not None and not _number("gate", gate) > 0.0:
             raise ValueError(f"gate must be > 0 (a χ² threshold) or None, got {gate!r}")
@@ -159,6 +197,12 @@ class ActiveSLAMOptions:
         for name, value in values.items():
             object.__setattr__(self, name, value)
         check_options(self)  # the table's limits, the integers' upper bound among them
+        if values["belief"] != "isam2":
+            for f in fields(self):
+                if f.name.startswith("smoothing_") and values[f.name] != f.default:
+                    raise ValueError(
+                        f"{f.name} applies to belief='isam2', not {values['belief']!r}"
+                    )
         object.__setattr__(self, "weights", self._weights(self.reward_weights))
 
     @classmethod

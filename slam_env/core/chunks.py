@@ -242,6 +242,10 @@ class ChunkedCore:
         core, row = self.locate(index)
         return core.filter(row)
 
+    def smoother(self, index: int) -> Any:
+        core, row = self.locate(index)
+        return core.smoother(row)
+
     def belief_overlay(self, index: int, *args: Any) -> Any:
         core, row = self.locate(index)
         return core.belief_overlay(row, *args)

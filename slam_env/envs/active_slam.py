@@ -18,6 +18,7 @@ from slam_env.ekf import EKFSLAM
 from slam_env.envs.options import active_core, options_signature
 from slam_env.envs.pictures import LIVE_FIGURES
 from slam_env.envs.single import CoreEnv
+from slam_env.smoothing import ISAM2SLAM
 
 __all__ = ["DEFAULT_SCAN_BEAMS", "LIVE_FIGURES", "ActiveSLAMEnv"]
 
@@ -33,6 +34,13 @@ class ActiveSLAMEnv(CoreEnv):
     trained on. It computes what the wrapper stack ``LandmarksEnv → EKFSLAMWrapper →
     CoverageWrapper → ActiveSLAMReward`` (:mod:`slam_env.belief`) computes, in a few
     compiled calls; the filter is ``env.unwrapped.filter``.
+
+    ``belief="isam2"`` hands on a smoothing belief instead (iSAM2 over the pose graph,
+    :mod:`slam_env.smoothing`; the ``gtsam`` extra): its mean and the joint marginal of
+    the current pose and the map, in the filter's arrays, so every observation, reward
+    term, metric and agent reads it as it reads the filter's. The gate and, with hidden
+    IDs, the filter's association run against that marginal; the smoother is
+    ``env.unwrapped.smoother`` (``docs/smoothing.md``, "In the env").
 
     ## Action Space
     As :class:`~slam_env.envs.landmarks.LandmarksEnv`'s.
@@ -92,7 +100,7 @@ class ActiveSLAMEnv(CoreEnv):
     ## Version History
     * v0: the EKF-SLAM belief (standard, FEJ, OC), known IDs or nearest-neighbour and
       JCBB association, three observations, the coverage features; 0.2.0 moved the
-      modules into layers without changing a stream.
+      modules into layers without changing a stream, and added ``belief="isam2"``.
     """
 
     def __init__(self, render_mode: str | None = None, **options: Any) -> None:
@@ -106,8 +114,15 @@ class ActiveSLAMEnv(CoreEnv):
 
     @property
     def filter(self) -> EKFSLAM:
-        """The EKF-SLAM filter holding the current belief (its state is the core's)."""
+        """The EKF-SLAM filter holding the current belief (its state is the core's);
+        with ``belief="isam2"``, the smoothing belief as a Gaussian (its mean and joint
+        marginal, written at every step), which planners may copy and predict with."""
         return self._core.filter(0)
+
+    @property
+    def smoother(self) -> ISAM2SLAM:
+        """The smoothing belief of ``belief="isam2"`` (``ValueError`` with the EKF's)."""
+        return self._core.smoother(0)
 
     @property
     def reward_weights(self) -> ActiveSLAMRewardWeights:

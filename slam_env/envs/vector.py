@@ -27,6 +27,7 @@ from slam_env.envs.actions import DISCRETE_PRIMITIVES, parse_actions
 from slam_env.envs.options import active_cores, raw_cores
 from slam_env.envs.pictures import Pictures
 from slam_env.envs.registration import DEFAULT_MAX_EPISODE_STEPS
+from slam_env.smoothing import ISAM2SLAM
 
 
 def with_masks(
@@ -439,3 +440,8 @@ class ActiveSLAMVectorEnv(SlamVectorEnv):
         ``filter(-1)`` is the last sub-env's; ``IndexError`` outside ``-B … B - 1``,
         ``TypeError`` for a non-integer."""
         return self.core.filter(self._index(index))
+
+    def smoother(self, index: int) -> ISAM2SLAM:
+        """Sub-env ``index``'s smoothing belief (``belief="isam2"``; ``ValueError``
+        with the EKF's), indexed as :meth:`filter`."""
+        return self.core.smoother(self._index(index))
