@@ -34,6 +34,7 @@ import slam_env
 from agents.common.arguments import non_negative_int, positive_int
 from agents.learning.config import VECTORIZATIONS
 from agents.registry import AGENT_NAMES
+from slam_env.core.active_options import BELIEFS
 from slam_env.extras import MissingExtra, require
 
 PROG = "slam-env"
@@ -161,6 +162,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--settings",
         help="with --suite: only these of its settings, comma-separated (e.g. default,rooms)",
+    )
+    p.add_argument(
+        "--belief",
+        choices=BELIEFS,
+        help="the belief the agents act on, in every setting of a suite too (default: the "
+        "env's, 'ekf'; 'isam2': the smoothing belief, the gtsam extra)",
     )
     p.add_argument(
         "--export-trajectories",
@@ -308,10 +315,15 @@ def _run_evaluate(args: argparse.Namespace) -> int:
     if args.settings is not None:
         raise ValueError("--settings chooses settings of a suite: give --suite too")
     given = {"episodes": args.episodes, "seed": args.seed}  # None: evaluate's defaults
+    env_options = _options(args.env_option) or {}
+    if args.belief is not None:
+        if "belief" in env_options:
+            raise ValueError("give the belief once: --belief or --env-option belief=...")
+        env_options["belief"] = args.belief
     result = evaluate(
         args.agents,
         **{name: value for name, value in given.items() if value is not None},
-        env_options=_options(args.env_option),
+        env_options=env_options or None,
         out_dir=args.out,
         max_steps=args.max_steps,
         progress=not args.no_progress,
@@ -336,6 +348,7 @@ def _run_suite(args: argparse.Namespace) -> int:
         episodes=args.episodes,
         seed=args.seed,
         settings=names,
+        belief=args.belief or "ekf",
         progress=not args.no_progress,
     )
     for name, path in result.files.items():

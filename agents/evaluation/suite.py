@@ -57,6 +57,7 @@ from agents.registry import agent_label, make_agent, parse_agent_specs
 from agents.rollouts.episodes import run_episode
 from agents.rollouts.records import EpisodeRecord, check_episode_memory
 from agents.rollouts.suite_metrics import MAPPED_SHARES, SUITE_METRICS, suite_metrics
+from slam_env.core.active_options import BELIEFS
 
 #: Seeds of the suites' episodes (training draws its worlds from other generators).
 SUITE_SEED = 10_000
@@ -188,6 +189,7 @@ def run_suite(
     episodes: int | None = None,
     seed: int | None = None,
     settings: Sequence[str] | None = None,
+    belief: str = "ekf",
     progress: bool = True,
     verbose: bool = True,
 ) -> SuiteResult:
@@ -197,10 +199,18 @@ def run_suite(
     ``episodes``: per setting, instead of the suite's own count (3 seeds tell agents
     apart only where they differ by more than their scatter between worlds).
     ``settings``: only these of the suite's settings (by name, run in the suite's order),
-    to split a long suite between processes."""
+    to split a long suite between processes. ``belief``: ActiveSLAM-v0's belief in
+    every setting (``"isam2"``: the smoothing belief; the agents are the same)."""
     specs = parse_agent_specs(agent_specs) if isinstance(agent_specs, str) else list(agent_specs)
     parse_agent_specs(",".join(specs))
     settings = chosen_settings(suite, settings)
+    if belief not in BELIEFS:
+        raise ValueError(f"belief must be one of {BELIEFS}, got {belief!r}")
+    if belief != "ekf":
+        settings = [
+            dataclasses.replace(s, env_options={**s.env_options, "belief": belief})
+            for s in settings
+        ]
     if episodes is not None:
         check_count("episodes", episodes, 1)
         settings = [dataclasses.replace(s, episodes=episodes) for s in settings]
@@ -243,10 +253,11 @@ def run_suite(
     }
     write_csv(files["suite_csv"], list(rows[0]), rows)
     write_csv(files["suite_episodes_csv"], list(episode_rows[0]), episode_rows)
-    markdown = suite_markdown(rows, [agent_label(s) for s in specs], suite)
+    markdown = suite_markdown(rows, [agent_label(s) for s in specs], suite, belief)
     files["suite_md"].write_text(markdown)
     payload = {
         "suite": suite,
+        "belief": belief,
         "agents": specs,
         "seed": seed,
         "settings": [
@@ -323,13 +334,17 @@ def _fmt(value: float, pattern: str, censored: bool = False) -> str:
     return pattern.format(value) + ("*" if censored else "")
 
 
-def suite_markdown(rows: Sequence[dict[str, Any]], labels: Sequence[str], suite: str) -> str:
+def suite_markdown(
+    rows: Sequence[dict[str, Any]], labels: Sequence[str], suite: str, belief: str = "ekf"
+) -> str:
     """The suite's table (Markdown): a row per setting and agent; per setting the
     best agent on steps to 90% and on final entropy in bold; a steps-to value marked
     * where some episode never got there (counted as the episode length). Then, per
     pair of agents, the settings where the first beats the second on both."""
     lines = [
-        f"Suite `{suite}`: mean over the seeds of each setting; lower is better but for "
+        f"Suite `{suite}`"
+        + ("" if belief == "ekf" else f" on the `{belief}` belief")
+        + ": mean over the seeds of each setting; lower is better but for "
         "'mapped'. * : some episodes never reached the share (counted at the episode length).",
         "",
         "| setting | agent | " + " | ".join(title for _, title, _ in _COLUMNS) + " |",

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from agents.cli.main import main
-from agents.evaluation.suite import SUITES, chosen_settings, suite_settings
+from agents.evaluation.suite import SUITES, chosen_settings, run_suite, suite_settings
 from agents.rollouts.records import EpisodeRecord
 from agents.rollouts.suite_metrics import steps_to_share, suite_metrics
 
@@ -239,3 +239,34 @@ def test_a_policy_tied_to_its_landmark_count_is_refused_before_anything_runs(tmp
     with pytest.raises(ValueError, match="setting 'rooms'"):
         run_suite(["random", "ppo"], "smoke", tmp_path, progress=False, verbose=False)
     assert not (tmp_path / "suite.csv").exists()
+
+
+def test_cli_suite_runs_every_setting_on_the_belief_it_is_given(tmp_path):
+    pytest.importorskip("gtsam", reason="belief='isam2' needs the 'gtsam' extra")
+    out = {belief: tmp_path / belief for belief in ("ekf", "isam2")}
+    for belief, folder in out.items():
+        assert main(["evaluate", "--agents", "frontier", "--suite", "smoke", "--belief", belief,
+                     "--episodes", "1", "--out", str(folder), "--no-progress"]) == 0  # fmt: skip
+    ekf, isam2 = (json.loads((out[b] / "results.json").read_text()) for b in ("ekf", "isam2"))
+    assert (ekf["belief"], isam2["belief"]) == ("ekf", "isam2")
+    assert all(s["env_options"]["belief"] == "isam2" for s in isam2["settings"])
+    assert all("belief" not in s["env_options"] for s in ekf["settings"])
+    assert "on the `isam2` belief" in (out["isam2"] / "suite.md").read_text()
+    # The same worlds and agent; the beliefs differ, and so do their map errors.
+    assert [e["seed"] for e in ekf["episodes"]] == [e["seed"] for e in isam2["episodes"]]
+    assert [e["map_rmse"] for e in ekf["episodes"]] != [e["map_rmse"] for e in isam2["episodes"]]
+
+
+def test_cli_evaluate_takes_the_belief_once(tmp_path, capsys):
+    argv = ["evaluate", "--agents", "random", "--episodes", "1", "--out", str(tmp_path)]
+    with pytest.raises(SystemExit) as exc:
+        main([*argv, "--belief", "isam2", "--env-option", "belief=ekf"])
+    assert exc.value.code == 2 and "give the belief once" in capsys.readouterr().err
+    with pytest.raises(SystemExit) as exc:
+        main([*argv, "--belief", "gtsam"])
+    assert exc.value.code == 2 and "invalid choice" in capsys.readouterr().err
+
+
+def test_run_suite_refuses_an_unknown_belief(tmp_path):
+    with pytest.raises(ValueError, match="belief must be one of"):
+        run_suite("random", "smoke", tmp_path, belief="gtsam")
