@@ -10,7 +10,8 @@ sets alone and drops them from the other CPUs' pins (do it only when a change of
 behaviour is meant, and say so in the commit). Another CPU's pins are recomputed here
 by compiling for it, ``NUMBA_CPU_NAME=znver3 NUMBA_CPU_FEATURES="" NUMBA_CACHE_DIR=DIR``
 before the same command (an empty feature list takes LLVM's own for that CPU): that
-reproduced every znver3 pin on a znver5 machine. The test
+reproduced every znver3 pin on a znver5 machine. Pinned: znver3, znver5 and rocketlake
+(whose pins, taken on a rocketlake machine, equal znver3's in every set). The test
 ``tests/test_pinned_streams.py`` holds the code to the pins of the CPU it runs on.
 """
 
