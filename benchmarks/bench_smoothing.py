@@ -42,6 +42,8 @@ from typing import Any
 
 from agents.common.arguments import non_negative_int, positive_int  # argparse only
 
+ACTIVE_ID = "slam_env/ActiveSLAM-v0"
+
 
 def estimator_kwargs(recording: Any, args: argparse.Namespace) -> dict[str, Any]:
     """ISAM2SLAM's arguments for one recorded episode: the noise-matched models
@@ -120,6 +122,64 @@ def timing(args: argparse.Namespace) -> None:
     print(f"  {'':28s} {'mean ms':>8s} {'median':>8s} {'max':>8s}")
     for name, mean, median, worst in rows:
         print(f"  {name:28s} {mean:8.3f} {median:8.3f} {worst:8.3f}")
+
+
+def env_timing(args: argparse.Namespace) -> None:
+    """``ActiveSLAM-v0``'s step on each belief, driven by the same tour (it steers by
+    the true pose, so both beliefs see the same actions and worlds)."""
+    import gymnasium as gym
+    import numpy as np
+
+    import slam_env  # noqa: F401  (registers the env IDs)
+    from benchmarks.consistency_episodes import TourDriver
+
+    print(f"env: {ACTIVE_ID}'s step, {args.steps} steps, seed {args.seed}, least of {args.repeats}")
+    rows = {}
+    for belief in ("ekf", "isam2"):
+        runs = []
+        for _ in range(args.repeats):
+            options = {} if belief == "ekf" else _smoothing_options(args)
+            env = gym.make(ACTIVE_ID, max_episode_steps=args.steps, belief=belief, **options)
+            _, info = env.reset(seed=args.seed)
+            driver = TourDriver(env)
+            seconds = np.empty(args.steps)
+            for t in range(args.steps):
+                action = driver.act(np.asarray(info["pose"], dtype=np.float64))
+                start = time.process_time()
+                obs, _, terminated, truncated, info = env.step(action)
+                seconds[t] = time.process_time() - start
+                driver.observe(*unpack(env, obs))
+            runs.append(seconds)
+            env.close()
+        rows[belief] = (np.min(runs, axis=0), info["landmarks_known"])
+    print(f"  {'belief':8s} {'mean ms':>8s} {'median':>8s} {'last 100':>9s} {'landmarks':>10s}")
+    for belief, (seconds, known) in rows.items():
+        print(
+            f"  {belief:8s} {1e3 * seconds.mean():8.3f} {1e3 * np.median(seconds):8.3f} "
+            f"{1e3 * seconds[-100:].mean():9.3f} {known:10d}"
+        )
+    ratio = rows["isam2"][0].mean() / rows["ekf"][0].mean()
+    print(f"  isam2 / ekf: {ratio:.1f}x")
+
+
+def unpack(env: Any, obs: Any) -> tuple[Any, Any]:
+    """The step's detections (z, ids) as the raw core holds them, for the tour's
+    bookkeeping (the belief observation does not carry them)."""
+    from slam_env.sensing.raw_observation import unpack_detections
+
+    raw = env.unwrapped._core.raw
+    return unpack_detections(
+        {"detections": raw.out.detections[0], "ids": raw.out.ids[0], "mask": raw.out.mask[0]}
+    )
+
+
+def _smoothing_options(args: argparse.Namespace) -> dict[str, Any]:
+    return {
+        "smoothing_relinearize_threshold": args.relinearize_threshold,
+        "smoothing_relinearize_skip": args.relinearize_skip,
+        "smoothing_keyframes": args.keyframes,
+        "smoothing_window": args.window,
+    }
 
 
 def growth(args: argparse.Namespace) -> None:
@@ -219,6 +279,7 @@ def parse_args(argv: Sequence[str] | None = None) -> argparse.Namespace:
     )
     parser.add_argument("--skip-timing", action="store_true")
     parser.add_argument("--skip-growth", action="store_true")
+    parser.add_argument("--skip-env", action="store_true", help="no ActiveSLAM-v0 step timing")
     parser.add_argument("--skip-accuracy", action="store_true")
     args = parser.parse_args(argv)
     for scale in args.odometry_scales:
@@ -241,6 +302,8 @@ def main(argv: Sequence[str] | None = None) -> None:
         raise SystemExit(str(err)) from None
     if not args.skip_timing:
         timing(args)
+    if not args.skip_env:
+        env_timing(args)
     if not args.skip_growth:
         growth(args)
     if not args.skip_accuracy:

@@ -519,7 +519,7 @@ class ISAM2SLAM:
             if len(keys) == 1:
                 joint = isam.marginalCovariance(keys[0])
             else:
-                joint = isam.jointMarginalCovariance(keys).fullMatrix()
+                joint = self._graph.joint_marginal(isam, keys, [3] + [2] * self._n)
             self._joint = self._world(joint)
         return self._joint.copy()
 

@@ -195,6 +195,50 @@ def test_the_joint_marginal_is_the_dense_inverse_of_the_information(motion, meas
     np.testing.assert_array_equal(mean, belief.landmark_means()[1])
 
 
+def test_the_joint_marginal_from_the_bayes_net_is_gtsams_in_any_key_order(noisy_episodes):
+    episode = noisy_episodes["odometry", "range_bearing"]
+    belief = make(episode)
+    feed(belief, episode)
+    isam = belief._isam2()
+    keys = [pose_key(belief.n_poses - 1)] + [landmark_key(int(i)) for i in belief.state_to_id]
+    dims = [3] + [2] * belief.n_landmarks
+    order = np.random.default_rng(0).permutation(len(keys))
+    keys, dims = [keys[i] for i in order], [dims[i] for i in order]
+    expected = isam.jointMarginalCovariance(keys).fullMatrix()
+    got = smoothing_graph.joint_marginal(isam, keys, dims)
+    np.testing.assert_allclose(got, expected, rtol=1e-9, atol=1e-12 * np.abs(expected).max())
+
+
+def test_the_joint_marginal_falls_back_where_a_conditional_holds_several_keys():
+    class Conditional:
+        def firstFrontalKey(self):
+            return 7
+
+    class Net:
+        def matrix(self):
+            return np.eye(5), np.zeros((5, 1))
+
+        def size(self):
+            return 1
+
+        def at(self, i):
+            return Conditional()
+
+    class Joint:
+        def fullMatrix(self):
+            return np.diag([1.0, 2.0, 3.0, 4.0, 5.0])
+
+    class Solver:
+        def jointBayesNet(self, keys):
+            return Net()
+
+        def jointMarginalCovariance(self, keys):
+            return Joint()
+
+    got = smoothing_graph.joint_marginal(Solver(), [7, 9], [3, 2])
+    np.testing.assert_array_equal(got, np.diag([1.0, 2.0, 3.0, 4.0, 5.0]))
+
+
 def test_a_prediction_propagates_the_covariance_as_the_graph_will(noisy_episodes):
     episode = noisy_episodes["odometry", "range_bearing"]
     belief = make(episode, relinearize_threshold=1e9)  # no relinearisation in between
