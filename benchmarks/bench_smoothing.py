@@ -4,7 +4,7 @@ episode, and map accuracy against the batch least-squares optimum.
     .venv-gtsam/bin/python -m benchmarks.bench_smoothing [--steps 500] [--long-steps 2000]
         [--runs 3] [--seed 0] [--odometry-scales 1 4] [--motion-factor between]
         [--relinearize-threshold 0.02] [--relinearize-skip 1] [--keyframes K] [--window N]
-        [--repeats 3] [--skip-timing] [--skip-growth] [--skip-accuracy]
+        [--repeats 3] [--skip-timing] [--skip-env] [--skip-growth] [--skip-accuracy]
 
 The data is ``slam_env/Landmarks-v0`` on the default world (20 landmarks), driven by
 ``consistency_episodes``' ``TourDriver`` (a tour of the landmarks from the true pose and
@@ -19,6 +19,10 @@ and Q, the true start with zero covariance).
   runs; the mean and median per step, the same with the belief read as the env would
   read it (``mean`` and ``cov`` after each update), and ``EKFSLAM`` on the same data
   for scale.
+* Env: ``ActiveSLAM-v0``'s whole step (``env.step``, CPU time) with ``belief="ekf"`` and
+  ``belief="isam2"`` (the options given), the same tour on the same seed (it steers by
+  the true pose): what the smoothing belief costs a user of the env, the joint
+  marginal that every observation needs included.
 * Growth: a ``--long-steps`` episode with the options given (by default no keyframes,
   no window), timed the same way; the mean step time over the first and the last
   hundred steps and their ratio, with the pose variables and landmarks at the end.
@@ -142,14 +146,16 @@ def env_timing(args: argparse.Namespace) -> None:
             env = gym.make(ACTIVE_ID, max_episode_steps=args.steps, belief=belief, **options)
             _, info = env.reset(seed=args.seed)
             driver = TourDriver(env)
-            seconds = np.empty(args.steps)
-            for t in range(args.steps):
+            seconds = []
+            for _ in range(args.steps):
                 action = driver.act(np.asarray(info["pose"], dtype=np.float64))
                 start = time.process_time()
                 obs, _, terminated, truncated, info = env.step(action)
-                seconds[t] = time.process_time() - start
+                seconds.append(time.process_time() - start)
                 driver.observe(*unpack(env, obs))
-            runs.append(seconds)
+                if terminated or truncated:
+                    break
+            runs.append(np.array(seconds))
             env.close()
         rows[belief] = (np.min(runs, axis=0), info["landmarks_known"])
     print(f"  {'belief':8s} {'mean ms':>8s} {'median':>8s} {'last 100':>9s} {'landmarks':>10s}")

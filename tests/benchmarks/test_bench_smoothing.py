@@ -1,4 +1,4 @@
-"""benchmarks/bench_smoothing.py: a tiny run prints its three sections, and a count a
+"""benchmarks/bench_smoothing.py: a tiny run prints its four sections, and a count a
 user can type that makes no sense is argparse's usage error (exit 2)."""
 
 from __future__ import annotations
@@ -31,6 +31,7 @@ def test_a_tiny_run_prints_every_section():
     assert done.returncode == 0, done.stderr
     out = done.stdout
     assert "timing: 40 steps" in out and "ISAM2SLAM + mean/cov read" in out
+    assert "env: slam_env/ActiveSLAM-v0's step, 40 steps" in out and "isam2 / ekf:" in out
     assert "growth: 200 steps" in out and "ratio" in out
     assert "accuracy: 1 runs × 40 steps" in out and " mean " in out
 
