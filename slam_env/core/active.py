@@ -68,12 +68,21 @@ class ActiveCore(BatchCore):
     the diagnostics against the truth, the belief entropy, the swept-area memory from
     the estimated pose, the belief observation and the reward terms. Results stay in
     the arrays until the next call; :meth:`observation`/:meth:`info` copy one sub-env's
-    out, :meth:`observations`/:meth:`infos` all.
+    out, :meth:`observations`/:meth:`infos` all. ``total_envs``, ``first_env``: where
+    this core is one chunk of a vector env, its sub-envs in all (they share the
+    memory budget) and the index of this chunk's first (for the errors).
     """
 
     has_belief = True
 
-    def __init__(self, config: EnvConfig, num_envs: int, options: ActiveSLAMOptions) -> None:
+    def __init__(
+        self,
+        config: EnvConfig,
+        num_envs: int,
+        options: ActiveSLAMOptions,
+        total_envs: int | None = None,
+        first_env: int = 0,
+    ) -> None:
         self.config = config
         self.num_envs = b = num_envs
         self.options = options
@@ -106,6 +115,8 @@ class ActiveCore(BatchCore):
         if options.belief == "isam2":
             self.smoothers = SmootherBatch(
                 self.filters,
+                total_envs,
+                first_env,
                 relinearize_threshold=options.smoothing_relinearize_threshold,
                 relinearize_skip=options.smoothing_relinearize_skip,
                 keyframes=options.smoothing_keyframes,
@@ -257,6 +268,7 @@ class ActiveCore(BatchCore):
         and folds in the first scan; its reward is 0, and the next step's gains are
         measured from it."""
         raw, filters = self.raw, self.filters
+        self.check_room(stepping)
         layouts = raw.advance(commands, stepping, resetting)
         touched = self._touched
         np.copyto(touched, stepping)
@@ -285,6 +297,13 @@ class ActiveCore(BatchCore):
             self.smoothers.follow(filters, touched, stepping, self.failed)
         self._observe(touched, stepping)
         return layouts
+
+    def check_room(self, stepping: np.ndarray) -> None:
+        """``RuntimeError``, nothing changed, where a smoothing belief that steps would
+        outgrow its share of the memory budget (it records every update of its
+        episode: :meth:`SmootherBatch.check_room`)."""
+        if self.smoothers is not None:
+            self.smoothers.check_room(stepping)
 
     @property
     def terminated(self) -> np.ndarray:

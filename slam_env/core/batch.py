@@ -29,6 +29,10 @@ class BatchCore:
     ) -> list[Layout]:
         raise NotImplementedError
 
+    def check_room(self, stepping: np.ndarray) -> None:
+        """Raise, before anything changes, where stepping the sub-envs of ``stepping``
+        would outgrow what a sub-env may hold (only a smoothing belief grows)."""
+
     def reset(self, index: int, rng: np.random.Generator) -> Layout:
         """Start sub-env ``index`` on a new episode, its randomness from ``rng``."""
         self.rngs[index] = rng

@@ -159,6 +159,8 @@ class ChunkedCore:
         sub-envs of ``resetting``; then their rewards and flags gathered. Returns the new
         episodes' layouts, in the order of ``resetting``."""
         calls = self._calls(commands, stepping, resetting)
+        for k, _, chunk_stepping, _ in calls:  # every chunk, before any of them steps
+            self.cores[k].check_room(chunk_stepping)
         made = self._run(calls)
         by_sub_env: dict[int, Layout] = {}
         for (_, _, _, rows), layouts in zip(calls, made, strict=True):

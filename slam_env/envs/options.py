@@ -63,7 +63,11 @@ def active_cores(sizes: Sequence[int], options: Mapping[str, Any], owner: str) -
     with ``options``, checked first for all of their sub-envs together (an unknown name
     as Python refuses it for the function ``owner``)."""
     active, config = check_active_options(sum(sizes), options, owner)
-    return [ActiveCore(config, n, active) for n in sizes]
+    firsts = [sum(sizes[:k]) for k in range(len(sizes))]
+    return [
+        ActiveCore(config, n, active, total_envs=sum(sizes), first_env=first)
+        for n, first in zip(sizes, firsts, strict=True)
+    ]
 
 
 def check_active_options(

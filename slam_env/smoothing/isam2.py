@@ -474,6 +474,12 @@ class ISAM2SLAM:
         return self._n_discarded
 
     @property
+    def n_updates(self) -> int:
+        """iSAM2 updates recorded since the reset (the prior's included): what the
+        graph and the record hold grows with them."""
+        return len(self._ops)
+
+    @property
     def n_poses(self) -> int:
         """Pose variables made since the reset (x_0 included; with a window, fewer are
         still in the graph)."""

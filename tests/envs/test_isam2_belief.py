@@ -26,6 +26,7 @@ import slam_env  # noqa: F401  (registers the env IDs)
 from slam_env.belief.encodings import unpack_full_belief
 from slam_env.sensing.raw_observation import unpack_detections
 from slam_env.smoothing import ISAM2SLAM
+from slam_env.smoothing.batch import MAX_SMOOTHING_BYTES, UPDATE_BYTES
 from tests.envs.test_vector import _row
 from tests.streams import assert_same
 
@@ -246,3 +247,35 @@ def test_the_ekf_belief_has_no_smoother() -> None:
     env = gym.make(ACTIVE)
     with pytest.raises(ValueError, match="no smoother"):
         _ = env.unwrapped.smoother
+
+
+def test_a_belief_at_its_share_of_the_budget_refuses_the_step_and_changes_nothing() -> None:
+    """The smoothing belief records every update of its episode; at its share of the
+    memory budget (here lowered to 30 updates) a step is refused before anything
+    changes, in the single env and in every chunk of a threaded vector env."""
+    env = gym.make(ACTIVE, **ISAM2)
+    env.reset(seed=0)
+    smoothers = env.unwrapped._core.smoothers
+    assert smoothers.max_updates == MAX_SMOOTHING_BYTES // UPDATE_BYTES
+    smoothers.max_updates = 30
+    action = np.zeros(2, dtype=np.float32)
+    while env.unwrapped.smoother.n_updates < 30:
+        env.step(action)
+    before = pickle.dumps(env.unwrapped._core)
+    with pytest.raises(RuntimeError, match="holds 30 updates this episode"):
+        env.step(action)
+    assert pickle.dumps(env.unwrapped._core) == before
+    env.reset(seed=1)  # a new episode starts a new record
+    env.step(action)
+
+    venv = gym.make_vec(ACTIVE, num_envs=4, vectorization_mode="vector_entry_point",
+                        num_threads=2, **ISAM2)  # fmt: skip
+    venv.reset(seed=0)
+    cores = venv.unwrapped.core.cores
+    assert cores[0].smoothers.max_updates == MAX_SMOOTHING_BYTES // (4 * UPDATE_BYTES)
+    cores[1].smoothers.max_updates = 1
+    poses = venv.unwrapped.core.cores[0].worlds.poses.copy()
+    with pytest.raises(RuntimeError, match="sub-env 2 holds 1 updates"):
+        venv.step(np.zeros((4, 2), dtype=np.float32))
+    np.testing.assert_array_equal(cores[0].worlds.poses, poses)  # chunk 0 did not step
+    venv.close()
