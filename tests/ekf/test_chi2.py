@@ -9,7 +9,7 @@ import pytest
 from scipy import stats
 
 from agents.evaluation.statistics import t_quantile
-from slam_env.ekf.chi2 import chi2_ppf, joint_gates
+from slam_env.ekf.chi2 import QUANTILES, chi2_ppf, joint_gates
 
 PROBABILITIES = [1e-9, 0.001, 0.025, 0.5, 0.95, 0.975, 0.99, 0.999, 1 - 1e-12]
 
@@ -38,5 +38,21 @@ def test_making_an_env_does_not_import_scipy_stats():
         "import sys, gymnasium as gym, slam_env, agents.evaluation.statistics\n"
         "gym.make('slam_env/ActiveSLAM-v0')\n"
         "assert 'scipy.stats' not in sys.modules, 'scipy.stats was imported'\n"
+    )
+    subprocess.run([sys.executable, "-c", code], check=True, timeout=600)
+
+
+@pytest.mark.parametrize(("p", "dof"), sorted(QUANTILES))
+def test_the_stored_quantiles_are_scipys(p, dof):
+    assert QUANTILES[p, dof] == float(stats.chi2.ppf(p, dof))
+
+
+def test_making_and_stepping_an_env_with_its_default_gates_imports_no_scipy_special():
+    code = (
+        "import sys, gymnasium as gym, slam_env\n"
+        "env = gym.make('slam_env/ActiveSLAM-v0')\n"
+        "env.reset(seed=0)\n"
+        "env.step(env.action_space.sample())\n"
+        "assert 'scipy.special' not in sys.modules, 'scipy.special was imported'\n"
     )
     subprocess.run([sys.executable, "-c", code], check=True, timeout=600)
