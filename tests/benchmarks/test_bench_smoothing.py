@@ -1,4 +1,4 @@
-"""benchmarks/bench_smoothing.py: a tiny run prints its four sections, and a count a
+"""benchmarks/bench_smoothing.py: a tiny run prints its five sections, and a count a
 user can type that makes no sense is argparse's usage error (exit 2)."""
 
 from __future__ import annotations
@@ -32,6 +32,7 @@ def test_a_tiny_run_prints_every_section():
     out = done.stdout
     assert "timing: 40 steps" in out and "ISAM2SLAM + mean/cov read" in out
     assert "env: slam_env/ActiveSLAM-v0's step, 40 steps" in out and "isam2 / ekf:" in out
+    assert "association: hidden IDs, 1 runs × 40 steps" in out and "jcbb" in out
     assert "growth: 200 steps" in out and "ratio" in out
     assert "accuracy: 1 runs × 40 steps" in out and " mean " in out
 
