@@ -270,3 +270,16 @@ def test_cli_evaluate_takes_the_belief_once(tmp_path, capsys):
 def test_run_suite_refuses_an_unknown_belief(tmp_path):
     with pytest.raises(ValueError, match="belief must be one of"):
         run_suite("random", "smoke", tmp_path, belief="gtsam")
+
+
+def test_every_agent_acts_on_the_smoothing_belief(tmp_path):
+    """The planners read the belief (and infogain, lookahead copy and predict it), the
+    policies its observation: all of them run on belief='isam2' unchanged."""
+    pytest.importorskip("gtsam", reason="belief='isam2' needs the 'gtsam' extra")
+    agents = "random,frontier,infogain,ppo,goals,lookahead"
+    assert main(["evaluate", "--agents", agents, "--episodes", "1", "--max-steps", "25",
+                 "--belief", "isam2", "--out", str(tmp_path), "--no-progress"]) == 0  # fmt: skip
+    results = json.loads((tmp_path / "results.json").read_text())
+    assert results["settings"]["env_options"] == {"belief": "isam2"}
+    assert [e["agent"] for e in results["episodes"]] == agents.split(",")
+    assert all(e["steps"] == 25 and np.isfinite(e["final_entropy"]) for e in results["episodes"])
