@@ -257,6 +257,7 @@ def test_a_belief_at_its_share_of_the_budget_refuses_the_step_and_changes_nothin
     env.reset(seed=0)
     smoothers = env.unwrapped._core.smoothers
     assert smoothers.max_updates == MAX_SMOOTHING_BYTES // UPDATE_BYTES
+    assert smoothers.max_updates == 262_144  # 2 GiB at 8 KB an update (the docs' figure)
     smoothers.max_updates = 30
     action = np.zeros(2, dtype=np.float32)
     while env.unwrapped.smoother.n_updates < 30:
