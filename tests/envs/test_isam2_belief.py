@@ -24,6 +24,7 @@ from stable_baselines3.common.env_checker import check_env as sb3_check_env
 
 import slam_env  # noqa: F401  (registers the env IDs)
 from slam_env.belief.encodings import unpack_full_belief
+from slam_env.ekf import Status
 from slam_env.sensing.raw_observation import unpack_detections
 from slam_env.smoothing import ISAM2SLAM
 from slam_env.smoothing.batch import MAX_SMOOTHING_BYTES, UPDATE_BYTES
@@ -195,6 +196,8 @@ def test_reset_starts_a_fresh_graph() -> None:
     smoother = env.unwrapped.smoother
     assert smoother.n_poses == 1 and smoother.n_rejected == 0
     np.testing.assert_allclose(smoother.pose, env.unwrapped.filter.pose)
+    filters, n = env.unwrapped._core.filters, smoother.n_landmarks
+    assert (filters.slot_to_id[0, n:] == -1).all() and (filters.id_to_slot[0] >= -1).all()
     first = gym.make(ACTIVE, **ISAM2)
     first.reset(seed=1)
     np.testing.assert_array_equal(smoother.mean, first.unwrapped.smoother.mean)
@@ -280,3 +283,27 @@ def test_a_belief_at_its_share_of_the_budget_refuses_the_step_and_changes_nothin
         venv.step(np.zeros((4, 2), dtype=np.float32))
     np.testing.assert_array_equal(cores[0].worlds.poses, poses)  # chunk 0 did not step
     venv.close()
+
+
+@pytest.mark.parametrize("refused", [False, True])
+def test_a_smoother_takes_only_what_the_filter_step_used(refused: bool) -> None:
+    """An observation the filter step initialised reaches the smoother; where that
+    step failed (an error code), none does, and the odometry still does."""
+    env = gym.make(ACTIVE, **ISAM2, n_landmarks=20)
+    env.reset(seed=0)
+    core = env.unwrapped._core
+    filters, smoothers = core.filters, core.smoothers
+    smoother = smoothers[0]
+    unseen = next(i for i in range(filters.template.max_landmarks) if smoother.id_to_state[i] < 0)
+    had, poses = smoother.n_landmarks, smoother.n_poses
+    filters.u[0] = (0.0, 0.1, 0.0)
+    filters.counts[0] = 1
+    filters.z[0, 0] = (2.0, 0.1)
+    filters.ids[0, 0] = unseen
+    filters.status[0, 0] = int(Status.INITIALISED)
+    filters.error[0] = int(refused)
+    failed = np.zeros(1, dtype=bool)
+    smoothers.follow(filters, np.ones(1, bool), np.ones(1, bool), failed)
+    assert smoother.n_poses == poses + 1  # the odometry, either way
+    assert smoother.n_landmarks == had + (not refused)
+    assert filters.n[0] == smoother.n_landmarks and not failed[0]
