@@ -27,13 +27,18 @@ def test_importing_the_layer_imports_no_gtsam():
     assert done.stdout.strip() == "[]"
 
 
-def test_a_missing_gtsam_is_one_line_naming_the_extra(monkeypatch):
+@pytest.fixture
+def no_gtsam(monkeypatch):
+    """A Python that cannot find GTSAM."""
     find_spec = importlib.util.find_spec
     monkeypatch.setattr(
         importlib.util,
         "find_spec",
         lambda name, *a: None if name == "gtsam" else find_spec(name, *a),
     )
+
+
+def test_a_missing_gtsam_is_one_line_naming_the_extra(no_gtsam):
     with pytest.raises(MissingExtra) as info:
         require("gtsam", "ISAM2SLAM")
     assert str(info.value) == (
@@ -43,17 +48,11 @@ def test_a_missing_gtsam_is_one_line_naming_the_extra(monkeypatch):
         ISAM2SLAM(alphas=(0.01,) * 4, measurement_cov=np.eye(2) * 0.01, max_landmarks=3)
 
 
-def test_the_env_with_the_smoothing_belief_names_the_missing_extra(monkeypatch):
+def test_the_env_with_the_smoothing_belief_names_the_missing_extra(no_gtsam):
     import gymnasium as gym
 
     import slam_env  # noqa: F401  (registers the env IDs)
 
-    find_spec = importlib.util.find_spec
-    monkeypatch.setattr(
-        importlib.util,
-        "find_spec",
-        lambda name, *a: None if name == "gtsam" else find_spec(name, *a),
-    )
     with pytest.raises(MissingExtra, match="ISAM2SLAM needs the 'gtsam' extra"):
         gym.make("slam_env/ActiveSLAM-v0", belief="isam2")
     gym.make("slam_env/ActiveSLAM-v0").reset(seed=0)  # the filter's belief needs none
