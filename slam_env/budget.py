@@ -61,6 +61,11 @@ NOISE_LIMIT = 1e30
 MAX_REWARD_WEIGHT = 1e100
 # What the options allocate, over all the sub-envs of a vector env.
 MAX_MEMORY_BYTES = 2 * 2**30
+# The smoothing belief (ActiveSLAM-v0's belief="isam2") keeps every iSAM2 update of an
+# episode in GTSAM's graph and in the record a pickle replays: ~6 KB an update on the
+# default world (20 landmarks, RSS over 3,000 steps), counted as 8 KB. It grows while
+# the env runs, so it is checked before each step (smoother_updates), not at build.
+SMOOTHER_BYTES_PER_UPDATE = 8 * 2**10
 
 # The memory model: what the options allocate, measured with tracemalloc on the current
 # code with a margin (the interpreter and the libraries, ~200 MB, are not counted).
@@ -315,6 +320,12 @@ def check_budget(
         )
     memory = _check_memory(config, world, belief, coverage, association, num_envs)
     return Usage(moves, cells, memory)
+
+
+def smoother_updates(num_envs: int) -> int:
+    """The iSAM2 updates one sub-env's smoothing belief may hold in an episode: its
+    share of :data:`MAX_MEMORY_BYTES` among ``num_envs`` sub-envs (262,144 alone)."""
+    return MAX_MEMORY_BYTES // (SMOOTHER_BYTES_PER_UPDATE * num_envs)
 
 
 def _check_work(config: EnvConfig) -> int:

@@ -68,9 +68,10 @@ class ActiveCore(BatchCore):
     the diagnostics against the truth, the belief entropy, the swept-area memory from
     the estimated pose, the belief observation and the reward terms. Results stay in
     the arrays until the next call; :meth:`observation`/:meth:`info` copy one sub-env's
-    out, :meth:`observations`/:meth:`infos` all. ``total_envs``, ``first_env``: where
-    this core is one chunk of a vector env, its sub-envs in all (they share the
-    memory budget) and the index of this chunk's first (for the errors).
+    out, :meth:`observations`/:meth:`infos` all. ``max_updates``: the iSAM2 updates a
+    smoothing belief may hold in an episode (its share of the memory budget,
+    :func:`slam_env.budget.smoother_updates`); ``first_env``: where this core is one
+    chunk of a vector env, the index of its first sub-env (for the errors).
     """
 
     has_belief = True
@@ -80,7 +81,8 @@ class ActiveCore(BatchCore):
         config: EnvConfig,
         num_envs: int,
         options: ActiveSLAMOptions,
-        total_envs: int | None = None,
+        *,
+        max_updates: int,
         first_env: int = 0,
     ) -> None:
         self.config = config
@@ -115,7 +117,7 @@ class ActiveCore(BatchCore):
         if options.belief == "isam2":
             self.smoothers = SmootherBatch(
                 self.filters,
-                total_envs,
+                max_updates,
                 first_env,
                 relinearize_threshold=options.smoothing_relinearize_threshold,
                 relinearize_skip=options.smoothing_relinearize_skip,

@@ -9,7 +9,7 @@ import inspect
 from collections.abc import Mapping, Sequence
 from typing import Any
 
-from slam_env.budget import check_budget, world_size
+from slam_env.budget import check_budget, smoother_updates, world_size
 from slam_env.config import EnvConfig, check_option_names, make_config, with_defaults
 from slam_env.core.active import ActiveCore
 from slam_env.core.active_options import ACTIVE_SLAM_DEFAULTS, ActiveSLAMOptions
@@ -65,7 +65,7 @@ def active_cores(sizes: Sequence[int], options: Mapping[str, Any], owner: str) -
     active, config = check_active_options(sum(sizes), options, owner)
     firsts = [sum(sizes[:k]) for k in range(len(sizes))]
     return [
-        ActiveCore(config, n, active, total_envs=sum(sizes), first_env=first)
+        ActiveCore(config, n, active, max_updates=smoother_updates(sum(sizes)), first_env=first)
         for n, first in zip(sizes, firsts, strict=True)
     ]
 

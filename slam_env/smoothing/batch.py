@@ -24,14 +24,7 @@ from slam_env.ekf.filter import EKFSLAM
 from slam_env.ekf.results import CORRECTED, INITIALISED
 from slam_env.smoothing.isam2 import ISAM2SLAM
 
-__all__ = ["MAX_SMOOTHING_BYTES", "UPDATE_BYTES", "SmootherBatch", "smoother_like"]
-
-# What the smoothing beliefs of one env (all its sub-envs) may hold: the memory budget
-# of slam_env.budget. Each iSAM2 update of an episode stays in GTSAM's graph and in the
-# record a pickle replays: ~6 KB an update on the default world (20 landmarks,
-# measured with RSS over 3,000 steps), counted as 8 KB.
-MAX_SMOOTHING_BYTES = 2 * 2**30
-UPDATE_BYTES = 8 * 2**10
+__all__ = ["SmootherBatch", "smoother_like"]
 
 
 def smoother_like(template: EKFSLAM, **options: Any) -> ISAM2SLAM:
@@ -53,23 +46,22 @@ def smoother_like(template: EKFSLAM, **options: Any) -> ISAM2SLAM:
 
 class SmootherBatch:
     """One :class:`ISAM2SLAM` per filter of a :class:`FilterBatch`, each made by
-    :func:`smoother_like` from the batch's template with ``options``; ``num_envs``:
-    the sub-envs sharing the memory budget (default the batch's), ``first_env`` the
-    index of the first in the env's errors (a chunk of a vector env)."""
+    :func:`smoother_like` from the batch's template with ``options``; ``max_updates``:
+    the iSAM2 updates each may hold in an episode (the env's share of the memory
+    budget, :func:`slam_env.budget.smoother_updates`), ``first_env`` the index of the
+    first in the env's errors (a chunk of a vector env)."""
 
     def __init__(
         self,
         filters: FilterBatch,
-        num_envs: int | None = None,
+        max_updates: int,
         first_env: int = 0,
         **options: Any,
     ) -> None:
         b = filters.x.shape[0]
         first = smoother_like(filters.template, **options)
         self.smoothers = [first] + [first.copy() for _ in range(b - 1)]
-        # Each sub-env's share of the budget, of all the sub-envs of the env (its
-        # chunks included: num_envs).
-        self.max_updates = MAX_SMOOTHING_BYTES // (UPDATE_BYTES * (num_envs or b))
+        self.max_updates = max_updates
         self._first_env = first_env
 
     def check_room(self, stepping: np.ndarray) -> None:
@@ -80,8 +72,8 @@ class SmootherBatch:
             if held >= self.max_updates:
                 raise RuntimeError(
                     f"the smoothing belief of sub-env {self._first_env + b} holds {held:,} "
-                    f"updates this episode, its share of the {MAX_SMOOTHING_BYTES / 2**30:g} "
-                    f"GiB budget (~{UPDATE_BYTES // 2**10} KB each): end episodes sooner "
+                    "updates this episode, its share of the memory budget "
+                    "(slam_env.budget.smoother_updates): end episodes sooner "
                     "(max_episode_steps) or give smoothing_keyframes"
                 )
 

@@ -24,10 +24,10 @@ from stable_baselines3.common.env_checker import check_env as sb3_check_env
 
 import slam_env  # noqa: F401  (registers the env IDs)
 from slam_env.belief.encodings import unpack_full_belief
+from slam_env.budget import MAX_MEMORY_BYTES, SMOOTHER_BYTES_PER_UPDATE, smoother_updates
 from slam_env.ekf import Status
 from slam_env.sensing.raw_observation import unpack_detections
 from slam_env.smoothing import ISAM2SLAM
-from slam_env.smoothing.batch import MAX_SMOOTHING_BYTES, UPDATE_BYTES
 from tests.envs.test_vector import _row
 from tests.streams import assert_same
 
@@ -259,7 +259,7 @@ def test_a_belief_at_its_share_of_the_budget_refuses_the_step_and_changes_nothin
     env = gym.make(ACTIVE, **ISAM2)
     env.reset(seed=0)
     smoothers = env.unwrapped._core.smoothers
-    assert smoothers.max_updates == MAX_SMOOTHING_BYTES // UPDATE_BYTES
+    assert smoothers.max_updates == MAX_MEMORY_BYTES // SMOOTHER_BYTES_PER_UPDATE
     assert smoothers.max_updates == 262_144  # 2 GiB at 8 KB an update (the docs' figure)
     smoothers.max_updates = 30
     action = np.zeros(2, dtype=np.float32)
@@ -276,7 +276,7 @@ def test_a_belief_at_its_share_of_the_budget_refuses_the_step_and_changes_nothin
                         num_threads=2, **ISAM2)  # fmt: skip
     venv.reset(seed=0)
     cores = venv.unwrapped.core.cores
-    assert cores[0].smoothers.max_updates == MAX_SMOOTHING_BYTES // (4 * UPDATE_BYTES)
+    assert cores[0].smoothers.max_updates == smoother_updates(4) == 262_144 // 4
     cores[1].smoothers.max_updates = 1
     poses = venv.unwrapped.core.cores[0].worlds.poses.copy()
     with pytest.raises(RuntimeError, match="sub-env 2 holds 1 updates"):
