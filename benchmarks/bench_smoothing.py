@@ -140,7 +140,6 @@ def env_timing(args: argparse.Namespace) -> None:
     import numpy as np
 
     import slam_env  # noqa: F401  (registers the env IDs)
-    from benchmarks.consistency_episodes import TourDriver
 
     print(f"env: {ACTIVE_ID}'s step, {args.steps} steps, seed {args.seed}, least of {args.repeats}")
     rows = {}
@@ -149,18 +148,8 @@ def env_timing(args: argparse.Namespace) -> None:
         for _ in range(args.repeats):
             options = {} if belief == "ekf" else _smoothing_options(args)
             env = gym.make(ACTIVE_ID, max_episode_steps=args.steps, belief=belief, **options)
-            _, info = env.reset(seed=args.seed)
-            driver = TourDriver(env)
-            seconds = []
-            for _ in range(args.steps):
-                action = driver.act(np.asarray(info["pose"], dtype=np.float64))
-                start = time.process_time()
-                obs, _, terminated, truncated, info = env.step(action)
-                seconds.append(time.process_time() - start)
-                driver.observe(*unpack(env, obs))
-                if terminated or truncated:
-                    break
-            runs.append(np.array(seconds))
+            seconds, info = tour(env, args.seed, args.steps)
+            runs.append(seconds)
             env.close()
         rows[belief] = (np.min(runs, axis=0), info["landmarks_known"])
     print(f"  {'belief':8s} {'mean ms':>8s} {'median':>8s} {'last 100':>9s} {'landmarks':>10s}")
@@ -181,7 +170,6 @@ def association(args: argparse.Namespace) -> None:
     import numpy as np
 
     import slam_env  # noqa: F401  (registers the env IDs)
-    from benchmarks.consistency_episodes import TourDriver
     from slam_env.kernels.ekf.association_score import SCORE_NAMES
 
     seeds = range(args.seed, args.seed + args.runs)
@@ -197,15 +185,7 @@ def association(args: argparse.Namespace) -> None:
             )  # fmt: skip
             scores, rmse = np.zeros(len(SCORE_NAMES), dtype=np.int64), []
             for seed in seeds:
-                _, info = env.reset(seed=seed)
-                driver = TourDriver(env)
-                for _ in range(args.steps):
-                    obs, _, terminated, truncated, info = env.step(
-                        driver.act(np.asarray(info["pose"], dtype=np.float64))
-                    )
-                    driver.observe(*unpack(env, obs))
-                    if terminated or truncated:
-                        break
+                _, info = tour(env, seed, args.steps)
                 scores += [info["association_episode"][n] for n in SCORE_NAMES]
                 rmse.append(info.get("map_rmse", np.nan))
             env.close()
@@ -213,13 +193,30 @@ def association(args: argparse.Namespace) -> None:
                   + f" {np.nanmean(rmse):9.4f}")  # fmt: skip
 
 
-def unpack(env: Any, obs: Any) -> tuple[Any, Any]:
-    """The step's true detections (z, true IDs) as the raw core holds them, for the
-    tour's bookkeeping (the belief observation does not carry them, and with hidden
-    IDs the raw one would not say which landmark was seen)."""
+def tour(env: Any, seed: int, steps: int) -> tuple[Any, dict[str, Any]]:
+    """One episode of ``ActiveSLAM-v0`` ``env`` reset with ``seed``, driven by
+    ``TourDriver`` on the true pose for up to ``steps`` steps: each step's CPU time
+    (``env.step`` alone) and the last info. The driver ticks off landmarks by the raw
+    core's true detections (the belief observation does not carry them, and with
+    hidden IDs the raw one would not say which landmark was seen)."""
+    import numpy as np
+
+    from benchmarks.consistency_episodes import TourDriver
+
+    _, info = env.reset(seed=seed)
+    driver = TourDriver(env)
     raw = env.unwrapped._core.raw
-    k = int(raw.det_count[0])
-    return raw.det_z[0, :k].copy(), raw.det_ids[0, :k].copy()
+    seconds = []
+    for _ in range(steps):
+        action = driver.act(np.asarray(info["pose"], dtype=np.float64))
+        start = time.process_time()
+        _, _, terminated, truncated, info = env.step(action)
+        seconds.append(time.process_time() - start)
+        k = int(raw.det_count[0])
+        driver.observe(raw.det_z[0, :k].copy(), raw.det_ids[0, :k].copy())
+        if terminated or truncated:
+            break
+    return np.array(seconds), info
 
 
 def _smoothing_options(args: argparse.Namespace) -> dict[str, Any]:
