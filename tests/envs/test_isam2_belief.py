@@ -28,7 +28,7 @@ from slam_env.budget import MAX_MEMORY_BYTES, SMOOTHER_BYTES_PER_UPDATE, smoothe
 from slam_env.ekf import Status
 from slam_env.sensing.raw_observation import unpack_detections
 from slam_env.smoothing import ISAM2SLAM
-from tests.envs.test_vector import _row
+from tests.envs.test_vector import replay_against_singles
 from tests.streams import assert_same
 
 ACTIVE, RAW = "slam_env/ActiveSLAM-v0", "slam_env/Landmarks-v0"
@@ -140,39 +140,11 @@ def test_both_checkers_pass(options: dict) -> None:
 def test_the_native_vector_env_replays_the_single_envs(options: dict) -> None:
     """Sub-env i equals the single env seeded s + i, on 1 and 2 threads, over 240
     steps that cross episode ends."""
-    b, seed, episode = 3, 5, 80
-    kwargs = {**ISAM2, **options, "max_episode_steps": episode}
-    venvs = [
-        gym.make_vec(
-            ACTIVE, num_envs=b, vectorization_mode="vector_entry_point", num_threads=t, **kwargs
-        )
-        for t in (1, 2)
-    ]
-    singles = [gym.make(ACTIVE, **kwargs) for _ in range(b)]
-    venvs[0].action_space.seed(1)
-    resets = [venv.reset(seed=seed) for venv in venvs]
-    for i, env in enumerate(singles):
-        o, inf = env.reset(seed=seed + i)
-        for obs, info in resets:
-            assert_same(_row(obs, i), o, "reset", exact_types=False)
-            assert_same(_row(info, i), inf, "reset info", exact_types=False)
-    done = [False] * b
-    for step in range(3 * episode):
-        actions = venvs[0].action_space.sample()
-        stepped = [venv.step(actions) for venv in venvs]
-        for i, env in enumerate(singles):
-            if done[i]:
-                (o, inf), r, te, tr = env.reset(), 0.0, False, False
-            else:
-                o, r, te, tr, inf = env.step(actions[i])
-            done[i] = te or tr
-            for obs, rewards, terminated, truncated, info in stepped:
-                assert_same(_row(obs, i), o, f"obs t={step} i={i}", exact_types=False)
-                assert_same(_row(info, i), inf, f"info t={step} i={i}", exact_types=False)
-                assert (rewards[i], terminated[i], truncated[i]) == (r, te, tr)
-    assert isinstance(venvs[1].unwrapped.smoother(-1), ISAM2SLAM)
-    for venv in venvs:
-        venv.close()
+    kwargs = {**ISAM2, **options}
+    ends = replay_against_singles(
+        ACTIVE, kwargs, b=3, seed=5, steps=240, episode=80, threads=(1, 2), action_seed=1
+    )
+    assert ends >= 3
 
 
 def test_a_pickle_continues_the_same_stream() -> None:
@@ -275,6 +247,7 @@ def test_a_belief_at_its_share_of_the_budget_refuses_the_step_and_changes_nothin
     venv = gym.make_vec(ACTIVE, num_envs=4, vectorization_mode="vector_entry_point",
                         num_threads=2, **ISAM2)  # fmt: skip
     venv.reset(seed=0)
+    assert isinstance(venv.unwrapped.smoother(-1), ISAM2SLAM)
     cores = venv.unwrapped.core.cores
     assert cores[0].smoothers.max_updates == smoother_updates(4) == 262_144 // 4
     cores[1].smoothers.max_updates = 1

@@ -68,14 +68,21 @@ def _row(tree: Any, i: int) -> Any:
     return tree[i]
 
 
-@pytest.mark.parametrize(("env_id", "options"), CONFIGS)
-def test_sub_env_i_replays_the_single_env_seeded_s_plus_i(env_id: str, options: dict) -> None:
-    """Observations, rewards, flags and infos bit-identical over 1,000 steps that
-    cross several episode ends (short episodes), each sub-env against its own single
-    env reset with seed s + i and then reset without a seed, as a user would; for
-    vector envs on 1, 2 and 3 threads alike (B = 5: chunks of 5; 3 + 2; 2 + 2 + 1),
-    stepped in lockstep with the same actions."""
-    b, seed, steps, episode = 5, 11, 1000, 150
+def replay_against_singles(
+    env_id: str,
+    options: dict,
+    b: int,
+    seed: int,
+    steps: int,
+    episode: int,
+    threads: tuple[int, ...] = THREADS,
+    action_seed: int = 0,
+) -> int:
+    """Step vector envs of ``b`` sub-envs on each of ``threads`` in lockstep with ``b``
+    single envs (sub-env i against the single env reset with seed ``seed + i``, then
+    reset without a seed, as a user would), the same random actions, episodes of
+    ``episode`` steps, for ``steps`` steps: observations, rewards, flags and infos must
+    be bit-identical. Returns the episode ends the singles crossed."""
     venvs = {
         t: gym.make_vec(
             env_id,
@@ -85,11 +92,11 @@ def test_sub_env_i_replays_the_single_env_seeded_s_plus_i(env_id: str, options: 
             num_threads=t,
             **options,
         )
-        for t in THREADS
+        for t in threads
     }
     singles = [gym.make(env_id, max_episode_steps=episode, **options) for _ in range(b)]
-    space = venvs[1].action_space
-    space.seed(0)
+    space = venvs[threads[0]].action_space
+    space.seed(action_seed)
     results = {t: venv.reset(seed=seed) for t, venv in venvs.items()}
     for i, env in enumerate(singles):
         o, inf = env.reset(seed=seed + i)
@@ -117,9 +124,21 @@ def test_sub_env_i_replays_the_single_env_seeded_s_plus_i(env_id: str, options: 
                 assert (rewards[i], terminated[i], truncated[i]) == (r, te, tr), where
     for _, rewards, terminated, truncated, _ in stepped.values():
         assert rewards.dtype == np.float64 and terminated.dtype == truncated.dtype == np.bool_
-    assert ends >= 3 * b  # the streams crossed resets
     for venv in venvs.values():
         venv.close()
+    return ends
+
+
+@pytest.mark.parametrize(("env_id", "options"), CONFIGS)
+def test_sub_env_i_replays_the_single_env_seeded_s_plus_i(env_id: str, options: dict) -> None:
+    """Observations, rewards, flags and infos bit-identical over 1,000 steps that
+    cross several episode ends (short episodes), each sub-env against its own single
+    env reset with seed s + i and then reset without a seed, as a user would; for
+    vector envs on 1, 2 and 3 threads alike (B = 5: chunks of 5; 3 + 2; 2 + 2 + 1),
+    stepped in lockstep with the same actions."""
+    b = 5
+    ends = replay_against_singles(env_id, options, b, seed=11, steps=1000, episode=150)
+    assert ends >= 3 * b  # the streams crossed resets
 
 
 def _rollout(venv: gym.vector.VectorEnv, steps: int) -> list[Any]:
