@@ -31,7 +31,7 @@ from slam_env.smoothing.odometry import (
     frame_jacobian,
     propagate,
 )
-from slam_env.smoothing.records import MEASURE, MOTION, POINT, POSE, PRIOR
+from slam_env.smoothing.records import MEASURE, MOTION, POINT, POSE, PRIOR, update_op
 
 __all__ = [
     "ISAM2SLAM",
@@ -69,34 +69,6 @@ def _positive_int(value: Any, name: str, allow_none: bool = False) -> int | None
     if value < 1:
         raise ValueError(f"{name} must be >= 1, got {value}")
     return int(value)
-
-
-def _update_op(
-    fkinds: list[int],
-    fkeys: list[tuple[int, int]],
-    fdata: list[np.ndarray],
-    vkinds: list[int],
-    vkeys: list[int],
-    vdata: list[np.ndarray],
-    stamped: tuple[int, ...],
-    now: float,
-) -> tuple:
-    """One iSAM2 update as the record keeps it: a tuple of arrays (Python's garbage
-    collector leaves such tuples alone, where a tuple per factor would be walked at
-    every collection): the factors' kinds ``(m,) int8``, keys ``(m, 2) uint64`` and
-    payloads (flat float64, see :data:`~slam_env.smoothing.graph.FACTOR_SIZES`), the
-    new values' kinds, keys and numbers, and with a window the keys stamped ``now``."""
-    return (
-        "update",
-        np.array(fkinds, dtype=np.int8),
-        np.array(fkeys, dtype=np.uint64).reshape(-1, 2),
-        np.concatenate([np.ravel(d) for d in fdata]).astype(np.float64),
-        np.array(vkinds, dtype=np.int8),
-        np.array(vkeys, dtype=np.uint64),
-        np.concatenate([np.ravel(d) for d in vdata]) if vdata else np.empty(0),
-        np.array(stamped, dtype=np.uint64),
-        now,
-    )
 
 
 class ISAM2SLAM:
@@ -234,7 +206,7 @@ class ISAM2SLAM:
         self._n_discarded = 0
         key = pose_key(0)
         prior = np.concatenate([pose, (cov + PRIOR_FLOOR * np.eye(3)).ravel()])
-        self._commit(_update_op([PRIOR], [(key, 0)], [prior], [POSE], [key], [pose], (key,), 0.0))
+        self._commit(update_op([PRIOR], [(key, 0)], [prior], [POSE], [key], [pose], (key,), 0.0))
 
     def reset(self, initial_pose: Any = None, initial_pose_cov: Any = None) -> None:
         """Start a new episode with no landmarks and a fresh graph. ``None`` takes the
@@ -420,7 +392,7 @@ class ISAM2SLAM:
                 ids_now = (*self._slot_to_id[: self._n].tolist(), *new_ids)
                 stamped = (key, *(landmark_key(lid) for lid in ids_now))
             now = float(self._n_poses - 1 + moved)
-            self._commit(_update_op(fkinds, fkeys, fdata, vkinds, vkeys, vdata, stamped, now))
+            self._commit(update_op(fkinds, fkeys, fdata, vkinds, vkeys, vdata, stamped, now))
         # The update went through: the bookkeeping follows it.
         if moved and fkinds:
             self._n_poses += 1
