@@ -22,6 +22,10 @@ PRESETS = ("random", "open", "cluttered", "rooms")
 MOTION_MODELS = ("odometry", "velocity")
 MEASUREMENT_MODELS = ("range_bearing", "cartesian")
 ACTION_TYPES = ("continuous", "discrete")
+# The beliefs ActiveSLAM-v0 can hand its agents: the EKF-SLAM filter, or the smoothing
+# belief over the pose graph (slam_env.smoothing; the gtsam extra). Here, with the other
+# choices, so that the command line can offer them without importing the filter.
+BELIEFS = ("ekf", "isam2")
 
 
 def plain(value: Any) -> Any:

@@ -34,7 +34,7 @@ import slam_env
 from agents.common.arguments import non_negative_int, positive_int
 from agents.learning.config import VECTORIZATIONS
 from agents.registry import AGENT_NAMES
-from slam_env.core.active_options import BELIEFS
+from slam_env.config import BELIEFS
 from slam_env.extras import MissingExtra, require
 
 PROG = "slam-env"

@@ -57,7 +57,7 @@ from agents.registry import agent_label, make_agent, parse_agent_specs
 from agents.rollouts.episodes import run_episode
 from agents.rollouts.records import EpisodeRecord, check_episode_memory
 from agents.rollouts.suite_metrics import MAPPED_SHARES, SUITE_METRICS, suite_metrics
-from slam_env.core.active_options import BELIEFS
+from slam_env.config import BELIEFS
 
 #: Seeds of the suites' episodes (training draws its worlds from other generators).
 SUITE_SEED = 10_000

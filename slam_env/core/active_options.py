@@ -11,12 +11,8 @@ from typing import Any
 
 from slam_env.belief.encodings import OBSERVATION_MODES
 from slam_env.belief.reward import ActiveSLAMRewardWeights
-from slam_env.config import EnvConfig, check_options, option, plain
+from slam_env.config import BELIEFS, EnvConfig, check_options, option, plain
 from slam_env.ekf import CORRECTION_MODES, DATA_ASSOCIATIONS, DEFAULT_GATE, LINEARIZATIONS, checks
-
-# The beliefs ActiveSLAM-v0 can hand its agents: the EKF-SLAM filter, or the smoothing
-# belief over the pose graph (slam_env.smoothing; the gtsam extra).
-BELIEFS = ("ekf", "isam2")
 
 # Proximity beams in the active-SLAM observation, unless the options set them.
 DEFAULT_SCAN_BEAMS = 16

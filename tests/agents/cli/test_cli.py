@@ -327,3 +327,15 @@ def test_a_world_setting_that_cannot_run_is_a_usage_error(tmp_path, capsys):
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "worlds.fovs value 360.0 cannot run" in err
     assert not (tmp_path / "run").exists()
+
+
+def test_the_command_line_imports_neither_the_filter_nor_numba_to_parse():
+    """``slam-env --help`` and its parser's choices (``--belief``) stay light: the
+    kernels are imported by a command that runs, not by the parser."""
+    code = (
+        "import sys, agents.cli.main as m\n"
+        "m.build_parser()\n"
+        "heavy = [n for n in ('numba', 'slam_env.ekf', 'torch') if n in sys.modules]\n"
+        "assert not heavy, heavy\n"
+    )
+    subprocess.run([sys.executable, "-c", code], check=True, timeout=300)
