@@ -57,6 +57,7 @@ intermediate, a covariance that would overflow).
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from functools import partial
 from typing import Any
 
@@ -257,11 +258,9 @@ class EKFSLAM(BeliefReads):
         # checks.observations returns them), called with those arrays bound: a call
         # pays neither numba's typing of its arguments nor a dozen attribute reads.
         # Only the workspaces are ever replaced (_grow_workspace pins them again).
-        args = (
-            self._xb, self._Pb, self._nb, self._firstb, self._u, self._params, self._modes,
-            self._mask, self._error,
-        )  # fmt: skip
-        self._predict = partial(pin(ekf.predict_one, *args, 0.0, 0.0, 0.0), *args)
+        # Each is pinned at its first call (_pinned_*): a filter that is made but never
+        # predicts or updates (the env's template) loads none of their kernels.
+        self._predict: Callable[..., int] | None = None
         self._max_obs = -1
         self._grow_workspace(min(self._N, 8))
 
@@ -288,15 +287,40 @@ class EKFSLAM(BeliefReads):
             self._n_rejected_b, self._firstb, self._params, self._modes, self._count,
             self._mask, self._error, work,
         )  # fmt: skip
-        self._update = partial(pin(ekf.update_one, *state, z, ids, status, nis, nearest), *state)
+        self._update: Callable[..., int] | None = None
+        self._update_types = state, (z, ids, status, nis, nearest)
         if self._associates:
             self._joint_gates = joint_gates(self._config.association_gates[0], max_obs)
             belief = (self._xb, self._Pb, self._nb, self._params, self._modes, self._joint_gates)
             held = (self._tentativeb, self._held, fwork, iwork)
             # A batch of one: (1, k, 2) observations, (1, k) IDs and distances.
             batched = (z[None], self._count, self._mask, ids[None], nis[None])
-            compiled = pin(association.associate, *belief, *batched, *held)
-            self._associate_call = partial(compiled, *belief), held
+            self._associate_call: tuple[Callable[..., bool], tuple] | None = None
+            self._associate_types = belief, batched, held
+
+    def _pinned_predict(self) -> Callable[..., int]:
+        """The prediction's kernel pinned to this filter's arrays (once)."""
+        args = (
+            self._xb, self._Pb, self._nb, self._firstb, self._u, self._params, self._modes,
+            self._mask, self._error,
+        )  # fmt: skip
+        self._predict = partial(pin(ekf.predict_one, *args, 0.0, 0.0, 0.0), *args)
+        return self._predict
+
+    def _pinned_update(self) -> Callable[..., int]:
+        """The update's kernel pinned to this filter's arrays and workspace (once per
+        workspace)."""
+        state, per_call = self._update_types
+        self._update = partial(pin(ekf.update_one, *state, *per_call), *state)
+        return self._update
+
+    def _pinned_association(self) -> tuple[Callable[..., bool], tuple]:
+        """The association's kernel pinned to this filter's belief and workspace, and
+        the held arrays it is called with (once per workspace)."""
+        belief, batched, held = self._associate_types
+        compiled = pin(association.associate, *belief, *batched, *held)
+        self._associate_call = partial(compiled, *belief), held
+        return self._associate_call
 
     @staticmethod
     def _check_prior(pose: Any, cov: Any) -> tuple[np.ndarray, np.ndarray]:
@@ -470,7 +494,7 @@ class EKFSLAM(BeliefReads):
         if not floats:
             checks.control_into(u, u_row, self._config.motion_model)
             a, b, c = (*u_row.tolist(), 0.0)[:3]
-        error = self._predict(a, b, c)
+        error = (self._predict or self._pinned_predict())(a, b, c)
         if error:
             self._raise(int(error), "predict", lambda: checks.bad_control(u_row))
 
@@ -511,10 +535,10 @@ class EKFSLAM(BeliefReads):
             if not np.isfinite(zk).all():
                 raise checks.bad_observations(zk, np.zeros(k, dtype=np.int64), self._N)
             self._count[0] = k
-            associate, held = self._associate_call
+            associate, held = self._associate_call or self._pinned_association()
             if not associate(zk[None], self._count, self._mask, idk[None], nearest[None], *held):
                 raise RuntimeError("the association's workspace is too small")  # a bug here
-        code = self._update(zk, idk, status, nis, nearest)
+        code = (self._update or self._pinned_update())(zk, idk, status, nis, nearest)
         if code:
             self._raise(code, "update", lambda: checks.bad_observations(zk, idk, self._N))
         if associates:

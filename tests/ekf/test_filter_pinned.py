@@ -9,6 +9,8 @@ from __future__ import annotations
 import copy
 import math
 import pickle
+import subprocess
+import sys
 
 import numba
 import numpy as np
@@ -156,3 +158,24 @@ def test_a_control_predicts_the_same_in_every_form(model, floats, ints):
             np.testing.assert_array_equal(got, expected)
     for got, expected in zip(predicted(ints), predicted(np.array(ints, float)), strict=True):
         np.testing.assert_array_equal(got, expected)
+
+
+def test_a_filter_pins_its_kernels_at_their_first_call_not_when_made():
+    # The env makes a template filter it never steps: making and stepping the env
+    # loads none of the single filter's kernels, which the first prediction and update
+    # of a filter then do (a fresh process: nothing loaded before).
+    code = (
+        "import gymnasium as gym, slam_env\n"
+        "from slam_env.kernels.ekf import association, filter as ekf\n"
+        "kernels = (ekf.predict_one, ekf.update_one, association.associate)\n"
+        "env = gym.make('slam_env/ActiveSLAM-v0', data_association='nearest_neighbor')\n"
+        "env.reset(seed=0)\n"
+        "env.step(env.action_space.sample())\n"
+        "assert [k.signatures for k in kernels] == [[], [], []], 'loaded by the env'\n"
+        "f = env.unwrapped.filter.copy()\n"
+        "f.predict((0.1, 0.5, 0.0))\n"
+        "assert [len(k.signatures) for k in kernels] == [1, 0, 0]\n"
+        "f.update([[2.0, 0.3]])\n"
+        "assert [len(k.signatures) for k in kernels] == [1, 1, 1]\n"
+    )
+    subprocess.run([sys.executable, "-c", code], check=True, timeout=600)
