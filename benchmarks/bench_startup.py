@@ -5,6 +5,7 @@ vector envs, beside CartPole-v1's in the same run.
 
     .venv/bin/python -m benchmarks.bench_startup [--repeats 3] [--vector 8]
                      [--ids Landmarks ActiveSLAM] [--no-cold] [--installed PYTHON]
+    .venv/bin/python -m benchmarks.bench_startup --parts [--repeats 5] [--ids ActiveSLAM]
 
 Each measurement is a child process (``python -c``), so that nothing is imported or
 compiled before it starts; cold children get a directory of their own as
@@ -64,6 +65,54 @@ print(json.dumps({
 """
 
 
+# The child of --parts: a warm single env's first step, by part.
+PARTS = r"""
+import json, sys, time
+env_id = sys.argv[1]
+start = time.perf_counter()
+import gymnasium, numpy, pymunk
+libraries = time.perf_counter()
+import numba
+from numba.core import caching
+from numba.core.registry import cpu_target
+cpu_target.target_context.refresh()
+cpu_target.typing_context.refresh()
+numba_done = time.perf_counter()
+loading = [0.0]
+load_overload = caching.Cache.load_overload
+def timed(self, *args, **kwargs):
+    t = time.perf_counter()
+    try:
+        return load_overload(self, *args, **kwargs)
+    finally:
+        loading[0] += time.perf_counter() - t
+caching.Cache.load_overload = timed
+import slam_env
+env = gymnasium.make(env_id)
+env.reset(seed=0)
+env.step(env.action_space.sample())
+done = time.perf_counter()
+print(json.dumps({
+    "gymnasium, numpy and pymunk": libraries - start,
+    "numba and its registries": numba_done - libraries,
+    "the cached kernels' loading": loading[0],
+    "the rest (slam_env, make, reset, step)": done - numba_done - loading[0],
+    "total": done - start,
+}))
+"""
+
+
+def parts(env_id: str) -> dict[str, float]:
+    """One warm child's first step by part (the package's own cache)."""
+    env = dict(os.environ, SDL_VIDEODRIVER="dummy")
+    env.pop("NUMBA_CACHE_DIR", None)
+    done = subprocess.run(
+        [sys.executable, "-c", PARTS, env_id],
+        capture_output=True, text=True, env=env, check=True, timeout=1800,
+    )  # fmt: skip
+    return json.loads(done.stdout.strip().splitlines()[-1])
+
+
 def child(env_id: str, vector: int, cache: str | None, python: str = sys.executable) -> dict:
     """One child's figures; ``cache`` None: the package's own cache directory."""
     env = dict(os.environ, SDL_VIDEODRIVER="dummy")
@@ -114,7 +163,18 @@ def main() -> None:
     parser.add_argument(
         "--installed", metavar="PYTHON", help="a fresh install's interpreter: its own cache"
     )
+    parser.add_argument(
+        "--parts", action="store_true", help="a warm first step taken apart, single envs"
+    )
     args = parser.parse_args()
+    if args.parts:
+        for name in args.ids:
+            parts(IDS[name])  # the cache filled, if it is not
+            runs = [parts(IDS[name]) for _ in range(args.repeats)]
+            print(f"{name}, warm first step by part (medians of {args.repeats}):")
+            for key in runs[0]:
+                print(f"  {key:<42} {statistics.median(r[key] for r in runs):6.3f} s")
+        return
 
     cases = [(name, IDS[name], 0) for name in args.ids]
     if args.vector:

@@ -18,6 +18,7 @@ ROOT = Path(__file__).resolve().parents[2]
 # One count per benchmark that once crashed, divided by zero or printed inf for it.
 BAD_COUNTS = {
     "benchmarks.bench_agents": ["--searches", "0"],
+    "benchmarks.bench_aot": ["--calls", "0"],
     "benchmarks.bench_consistency": ["--steps", "0"],
     "benchmarks.bench_coverage": ["--steps", "-1"],
     "benchmarks.bench_env": ["--repeats", "0"],
