@@ -37,7 +37,7 @@ import numpy as np
 
 from agents.common.arguments import non_negative_int, positive_int
 
-# stage -> (the module that calls the kernel, the kernel's name there, where it is defined)
+# stage -> (the module that calls its kernel, the kernel's name there)
 STAGES = {
     "egocentric": ("slam_env.belief.encodings", "encode_egocentric"),
     "motion": ("slam_env.world.drive", "drive"),
@@ -115,7 +115,9 @@ def record(stages: list[str], warmup: int) -> dict[str, dict[str, Any]]:
         raise RuntimeError(f"no call of {missing} in the recorded steps")
     for stage in stages:
         kernel = originals[stage][2]
-        calls[stage]["signature"] = kernel.nopython_signatures[-1]
+        types = tuple(kernel.typeof_pyval(arg) for arg in calls[stage]["before"])
+        # The specialisation the recorded call ran.
+        (calls[stage]["signature"],) = (s for s in kernel.nopython_signatures if s.args == types)
         calls[stage]["module"] = kernel.py_func.__module__
     return calls
 
