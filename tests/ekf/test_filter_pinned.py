@@ -9,8 +9,6 @@ from __future__ import annotations
 import copy
 import math
 import pickle
-import subprocess
-import sys
 
 import numba
 import numpy as np
@@ -160,22 +158,33 @@ def test_a_control_predicts_the_same_in_every_form(model, floats, ints):
         np.testing.assert_array_equal(got, expected)
 
 
-def test_a_filter_pins_its_kernels_at_their_first_call_not_when_made():
-    # The env makes a template filter it never steps: making and stepping the env
-    # loads none of the single filter's kernels, which the first prediction and update
-    # of a filter then do (a fresh process: nothing loaded before).
-    code = (
-        "import gymnasium as gym, slam_env\n"
-        "from slam_env.kernels.ekf import association, filter as ekf\n"
-        "kernels = (ekf.predict_one, ekf.update_one, association.associate)\n"
-        "env = gym.make('slam_env/ActiveSLAM-v0', data_association='nearest_neighbor')\n"
-        "env.reset(seed=0)\n"
-        "env.step(env.action_space.sample())\n"
-        "assert [k.signatures for k in kernels] == [[], [], []], 'loaded by the env'\n"
-        "f = env.unwrapped.filter.copy()\n"
-        "f.predict((0.1, 0.5, 0.0))\n"
-        "assert [len(k.signatures) for k in kernels] == [1, 0, 0]\n"
-        "f.update([[2.0, 0.3]])\n"
-        "assert [len(k.signatures) for k in kernels] == [1, 1, 1]\n"
-    )
-    subprocess.run([sys.executable, "-c", code], check=True, timeout=600)
+def test_a_filter_pins_its_kernels_at_their_first_call_not_when_made(monkeypatch):
+    # The env makes a template filter it never steps: making and stepping the env pins
+    # none of the single filter's kernels (so loads none from the cache), which the
+    # first prediction, association and update of a filter then do.
+    import gymnasium as gym
+
+    from slam_env.ekf import filter as filter_module
+    from slam_env.kernels.ekf import association
+    from slam_env.kernels.ekf import filter as ekf
+
+    pinned = []
+
+    def recording_pin(kernel, *args):
+        pinned.append(kernel)
+        return pin(kernel, *args)
+
+    pin = filter_module.pin
+    monkeypatch.setattr(filter_module, "pin", recording_pin)
+    env = gym.make("slam_env/ActiveSLAM-v0", data_association="nearest_neighbor")
+    env.reset(seed=0)
+    env.step(env.action_space.sample())
+    assert pinned == []
+    f = env.unwrapped.filter.copy()
+    f.predict((0.1, 0.5, 0.0))
+    f.predict((0.1, 0.5, 0.0))
+    assert pinned == [ekf.predict_one]
+    f.update([[2.0, 0.3]])
+    f.update([[2.0, 0.3]])
+    assert pinned == [ekf.predict_one, association.associate, ekf.update_one]
+    env.close()
