@@ -257,9 +257,10 @@ class EKFSLAM(BeliefReads):
         # types of the per-call ones: the outputs it allocates, and z and the IDs as
         # checks.observations returns them), called with those arrays bound: a call
         # pays neither numba's typing of its arguments nor a dozen attribute reads.
-        # Only the workspaces are ever replaced (_grow_workspace pins them again).
-        # Each is pinned at its first call (_pinned_*): a filter that is made but never
-        # predicts or updates (the env's template) loads none of their kernels.
+        # Each is pinned at its first call (_pinned_*), so a filter that is made but
+        # never predicts or updates (the env's template) loads none of their kernels.
+        # Only the workspaces are ever replaced (_grow_workspace drops the update's and
+        # the association's pins, taken again at their next call).
         self._predict: Callable[..., int] | None = None
         self._max_obs = -1
         self._grow_workspace(min(self._N, 8))
