@@ -10,7 +10,8 @@ row gives the env steps/s of the learning loop and the shares of its wall time s
 stepping the envs and in PPO's gradient updates, as ``training_summary.json`` has
 them (means over the repeats). The last rows run the native vector env with more
 sub-envs and a rollout as many env steps long (``n_steps`` scaled down), so that PPO's
-batch is the same.
+batch is the same. The last row runs ``agents/configs/ppo_fast.yaml``'s PPO settings
+(64 sub-envs, minibatches of 1,024, a 64 × 64 MLP).
 """
 
 from __future__ import annotations
@@ -25,18 +26,25 @@ from pathlib import Path
 import yaml
 
 from agents.common.arguments import positive_int
-from agents.learning.config import load_config
+from agents.learning.config import DEFAULT_CONFIG_PATH, load_config
 
-# label -> (vectorization, n_envs)
+FAST = load_config(DEFAULT_CONFIG_PATH.with_name("ppo_fast.yaml"))
+
+# label -> (vectorization, n_envs, PPO settings other than the default config's)
 MODES = {
-    "subproc, 2 workers (before)": ("subproc", 2),
-    "native, 2 sub-envs": ("native", 2),
-    "native, 16 sub-envs": ("native", 16),
-    "native, 64 sub-envs": ("native", 64),
+    "subproc, 2 workers (before)": ("subproc", 2, {}),
+    "native, 2 sub-envs": ("native", 2, {}),
+    "native, 16 sub-envs": ("native", 16, {}),
+    "native, 64 sub-envs": ("native", 64, {}),
+    "native, 64 sub-envs, ppo_fast.yaml": (
+        "native",
+        FAST.n_envs,
+        {"batch_size": FAST.ppo.batch_size, "net_arch": FAST.ppo.net_arch},
+    ),
 }
 
 
-def run(mode: str, n_envs: int, steps: int, rollout: int, out: Path) -> dict:
+def run(mode: str, n_envs: int, ppo: dict, steps: int, rollout: int, out: Path) -> dict:
     """One ``slam-env train`` in a child process; its ``training_summary.json``."""
     cfg = load_config()
     config = {
@@ -48,7 +56,7 @@ def run(mode: str, n_envs: int, steps: int, rollout: int, out: Path) -> dict:
         "eval_freq": 0,
         "progress_bar": False,
         "out_dir": str(out),
-        "ppo": {"n_steps": rollout // n_envs},
+        "ppo": {"n_steps": rollout // n_envs, **ppo},
     }
     path = out.with_suffix(".yaml")
     path.write_text(yaml.safe_dump(config))
@@ -70,13 +78,14 @@ def main(argv: list[str] | None = None) -> None:
     results: dict[str, list[dict]] = {label: [] for label in MODES}
     with tempfile.TemporaryDirectory() as tmp:
         for r in range(args.repeats):
-            for label, (mode, n_envs) in MODES.items():
-                out = Path(tmp) / f"{mode}{n_envs}_{r}"
-                results[label].append(run(mode, n_envs, args.steps, rollout, out))
+            for k, (label, (mode, n_envs, ppo)) in enumerate(MODES.items()):
+                out = Path(tmp) / f"mode{k}_{r}"
+                results[label].append(run(mode, n_envs, ppo, args.steps, rollout, out))
     p = default.ppo
     print(
         f"slam-env train, default config, {args.steps:,} env steps per run, PPO updates on "
-        f"rollouts of {rollout} env steps ({p.n_epochs} epochs, minibatch {p.batch_size}); "
+        f"rollouts of {rollout} env steps ({p.n_epochs} epochs, minibatch {p.batch_size}, "
+        f"MLP {p.net_arch} but for ppo_fast.yaml's row); "
         f"means of {args.repeats} runs per mode, taking turns:"
     )
     print("| mode | env steps/s | × subproc | env stepping | gradient updates | rest |")

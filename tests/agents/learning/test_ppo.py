@@ -71,6 +71,19 @@ def test_default_yaml_lists_every_key_with_its_default():
     assert dataclasses.replace(shipped, env_options={}) == TrainConfig()
 
 
+def test_the_fast_config_is_the_default_one_on_64_sub_envs_with_a_smaller_mlp():
+    # Its figures (docs/training.md) compare it with the default config: every key
+    # but the sub-envs, the minibatch and the MLP is the same, the rollout too.
+    default = load_config()
+    fast = load_config(DEFAULT_CONFIG_PATH.with_name("ppo_fast.yaml"))
+    ppo = {"n_steps": 32, "batch_size": 1024, "net_arch": [64, 64]}
+    assert fast.n_envs == 64 and {k: getattr(fast.ppo, k) for k in ppo} == ppo
+    assert fast.n_envs * fast.ppo.n_steps == default.n_envs * default.ppo.n_steps
+    assert fast.ppo == dataclasses.replace(default.ppo, **ppo)
+    others = {"n_envs": 64, "ppo": fast.ppo, "out_dir": "runs/fast", "model_name": "ppo_fast"}
+    assert fast == dataclasses.replace(default, **others)
+
+
 def test_load_config_applies_overrides(tmp_path):
     file = tmp_path / "c.yaml"
     file.write_text("n_envs: 4\nppo: {n_steps: 128}\n")
