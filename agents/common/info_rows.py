@@ -23,6 +23,9 @@ def _row(value: Any, index: int) -> Any:
     return item.item() if isinstance(item, np.generic) else item
 
 
+_MISSING = object()  # a key this row does not have
+
+
 class InfoRow(MutableMapping):
     """One sub-env's info, read on demand from a Gymnasium vector info: the keys its
     ``_key`` masks say it reported, values as the single env gives them (fresh arrays,
@@ -51,15 +54,28 @@ class InfoRow(MutableMapping):
             k for k in info if not k.startswith("_") and k not in self._deleted and info[f"_{k}"][i]
         ]
 
-    def __getitem__(self, key: str) -> Any:
+    def _lookup(self, key: str) -> Any:
+        """``key``'s value, or :data:`_MISSING` where this row has no such key."""
         if key in self._own:
             return self._own[key]
         info = self._vector
         if key in self._deleted or key.startswith("_") or key not in info:
-            raise KeyError(key)
+            return _MISSING
         if not info[f"_{key}"][self._index]:
-            raise KeyError(key)
+            return _MISSING
         return _row(info[key], self._index)
+
+    def __getitem__(self, key: str) -> Any:
+        value = self._lookup(key)
+        if value is _MISSING:
+            raise KeyError(key)
+        return value
+
+    def get(self, key: str, default: Any = None) -> Any:
+        # Without the KeyError that Mapping.get catches: SB3 asks every row of every
+        # step for keys it rarely has ("episode", "terminal_observation").
+        value = self._lookup(key)
+        return default if value is _MISSING else value
 
     def __setitem__(self, key: str, value: Any) -> None:
         self._own[key] = value

@@ -70,6 +70,26 @@ def test_info_rows_read_lazily_and_copy_to_plain_dicts() -> None:
         row["no such key"]
 
 
+def test_info_rows_get_as_their_plain_dicts_do() -> None:
+    venv = make_sb3_vec_env(ENV_ID, n_envs=2, seed=0)
+    venv.reset()
+    _, _, _, infos = venv.step(np.zeros((2, 2), dtype=np.float32))
+    row = infos[0]
+    row["episode"] = {"r": 2.0}  # written: the row's own
+    del row["collision"]  # deleted: gone, though the vector info has it
+    plain = row.copy()
+    assert len(row) == len(plain) and "episode" in plain and "collision" not in plain
+    for key in [*plain, "collision", "_pose", "no such key", "terminal_observation"]:
+        assert _same(row.get(key, "default"), plain.get(key, "default")), key
+    assert row.get("no such key") is None
+
+
+def _same(a, b) -> bool:
+    if isinstance(a, dict) or isinstance(b, dict):
+        return type(a) is type(b) and a.keys() == b.keys() and all(_same(a[k], b[k]) for k in a)
+    return np.array_equal(a, b) if isinstance(a, np.ndarray) else a == b
+
+
 def test_ppo_learns_on_the_native_vector_env() -> None:
     venv = VecMonitor(make_sb3_vec_env(ENV_ID, n_envs=4, seed=0, max_episode_steps=20))
     model = PPO("MultiInputPolicy", venv, n_steps=16, batch_size=32, n_epochs=1, seed=0)
