@@ -8,15 +8,16 @@ number of env steps and the same PPO settings in every mode, the modes taking tu
 (``--repeats`` rounds) so that a slow spell of a shared machine hits all of them. Each
 row gives the env steps/s of the learning loop and the shares of its wall time spent
 stepping the envs and in PPO's gradient updates, as ``training_summary.json`` has
-them (means over the repeats). The last rows run the native vector env with more
-sub-envs and a rollout as many env steps long (``n_steps`` scaled down), so that PPO's
-batch is the same. The last row runs ``agents/configs/ppo_fast.yaml``'s PPO settings
-(64 sub-envs, minibatches of 1,024, a 64 × 64 MLP).
+them (means over the repeats). The native rows with more sub-envs keep the rollout as
+many env steps long (``n_steps`` scaled down), so that PPO's batch is the same; the
+last row also takes every other PPO setting in which ``agents/configs/ppo_fast.yaml``
+differs from the default config (its minibatch and MLP).
 """
 
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import subprocess
 import sys
@@ -28,7 +29,22 @@ import yaml
 from agents.common.arguments import positive_int
 from agents.learning.config import DEFAULT_CONFIG_PATH, load_config
 
-FAST = load_config(DEFAULT_CONFIG_PATH.with_name("ppo_fast.yaml"))
+FAST_CONFIG = DEFAULT_CONFIG_PATH.with_name("ppo_fast.yaml")
+
+
+def _fast_mode() -> tuple[str, int, dict]:
+    """ppo_fast.yaml's mode: its sub-envs and the PPO settings it changes (but
+    ``n_steps``, which every row scales to the same rollout)."""
+    fast, default = load_config(FAST_CONFIG), load_config()
+    changed = {
+        f.name: getattr(fast.ppo, f.name)
+        for f in dataclasses.fields(fast.ppo)
+        if f.name != "n_steps" and getattr(fast.ppo, f.name) != getattr(default.ppo, f.name)
+    }
+    return "native", fast.n_envs, changed
+
+
+FAST_MODE = _fast_mode()
 
 # label -> (vectorization, n_envs, PPO settings other than the default config's)
 MODES = {
@@ -36,11 +52,7 @@ MODES = {
     "native, 2 sub-envs": ("native", 2, {}),
     "native, 16 sub-envs": ("native", 16, {}),
     "native, 64 sub-envs": ("native", 64, {}),
-    "native, 64 sub-envs, ppo_fast.yaml": (
-        "native",
-        FAST.n_envs,
-        {"batch_size": FAST.ppo.batch_size, "net_arch": FAST.ppo.net_arch},
-    ),
+    f"native, {FAST_MODE[1]} sub-envs, ppo_fast.yaml": FAST_MODE,
 }
 
 
