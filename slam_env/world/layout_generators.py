@@ -134,7 +134,7 @@ def random_layout(cfg: WorldConfig, robot_radius: float, rng: np.random.Generato
             )
         for k in range(cfg.n_obstacles):
             for _ in range(MAX_OBSTACLE_TRIES):
-                u = rng.random(4)
+                u = rng.random(4).tolist()  # Python floats: the same values, faster sums
                 w = lo + (hi - lo) * u[0]
                 h = lo + (hi - lo) * u[1]
                 free_x, free_y = W - 2.0 * gap - w, H - 2.0 * gap - h
@@ -162,7 +162,7 @@ def random_layout(cfg: WorldConfig, robot_radius: float, rng: np.random.Generato
             f"(radius {r:g} m)"
         )
     for _ in range(MAX_START_TRIES):
-        u = rng.random(3)
+        u = rng.random(3).tolist()
         sx, sy = rs + (W - 2.0 * rs) * u[0], rs + (H - 2.0 * rs) * u[1]
         if all(_box_distance(sx, sy, b) >= rs for b in boxes):
             start = (float(sx), float(sy), float(math.pi * (2.0 * u[2] - 1.0)))
@@ -187,7 +187,7 @@ def random_layout(cfg: WorldConfig, robot_radius: float, rng: np.random.Generato
     for k in range(cfg.n_landmarks):
         rejected = {"clearance": 0, "landmark_spacing": 0, "start": 0}
         for _ in range(MAX_LANDMARK_TRIES):
-            u = rng.random(2)
+            u = rng.random(2).tolist()
             x, y = need + (W - 2.0 * need) * u[0], need + (H - 2.0 * need) * u[1]
             why = _landmark_problem(x, y, boxes, (), 0.0, need, placed, spacing, keep_out)
             if why is None:

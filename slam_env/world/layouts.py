@@ -19,6 +19,7 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
+from itertools import chain
 from typing import Any
 
 import numpy as np
@@ -170,7 +171,7 @@ def as_list(value: Any, what: str) -> list[Any]:
 
 
 def as_floats(value: Any, n: int, what: str) -> tuple[float, ...]:
-    if type(value) is tuple and len(value) == n and all(type(v) is float for v in value):
+    if type(value) is tuple and len(value) == n and set(map(type, value)) == {float}:
         return value  # already what the coercion below makes (a generated layout's)
     items = as_list(value, what)
     if len(items) != n:
@@ -178,12 +179,53 @@ def as_floats(value: Any, n: int, what: str) -> tuple[float, ...]:
     return tuple(as_float(v, f"{what}[{i}]") for i, v in enumerate(items))
 
 
+def _float_rows(value: Any, n: int) -> bool:
+    """Whether ``value`` is already a tuple of ``n``-tuples of Python floats (a generated
+    layout's), which the coercion would return as it is; checked in C, not per item."""
+    return (
+        type(value) is tuple
+        and set(map(type, value)) <= {tuple}
+        and set(map(len, value)) <= {n}
+        and set(map(type, chain.from_iterable(value))) <= {float}
+    )
+
+
+def as_float_rows(value: Any, n: int, what: str) -> tuple[tuple[float, ...], ...]:
+    """``value`` as a tuple of ``n``-tuples of floats (row i named ``what[i]`` in an
+    error)."""
+    if _float_rows(value, n):
+        return value
+    return tuple(as_floats(p, n, f"{what}[{i}]") for i, p in enumerate(as_list(value, what)))
+
+
 def as_polygon(value: Any, what: str) -> tuple[Point, ...]:
-    pts = tuple(as_floats(p, 2, f"{what} vertex {j}") for j, p in enumerate(as_list(value, what)))
+    if _float_rows(value, 2):
+        pts = value
+    else:
+        pts = tuple(
+            as_floats(p, 2, f"{what} vertex {j}") for j, p in enumerate(as_list(value, what))
+        )
     # Normalise to counter-clockwise; degenerate shapes are left for validate().
     if len(pts) >= 3 and _signed_area(pts) < 0.0:
         pts = pts[::-1]
     return pts  # type: ignore[return-value]
+
+
+def _bbox(polygon: tuple[Point, ...]) -> tuple[float, float, float, float]:
+    """(xmin, ymin, xmax, ymax) of ``polygon`` (empty: an inverted infinite box)."""
+    if not polygon:
+        return (math.inf, math.inf, -math.inf, -math.inf)
+    xs, ys = zip(*polygon, strict=True)
+    return (min(xs), min(ys), max(xs), max(ys))
+
+
+def _as_ids(value: Any) -> tuple[int, ...]:
+    if type(value) is tuple and set(map(type, value)) <= {int}:
+        return value  # already what the coercion makes
+    return tuple(
+        as_int(v, f"Layout.landmark_ids[{i}]")
+        for i, v in enumerate(as_list(value, "Layout.landmark_ids"))
+    )
 
 
 # --------------------------------------------------------------------------- Layout
@@ -222,22 +264,15 @@ class Layout:
         fields: dict[str, Any] = {
             "width": as_float(self.width, "Layout.width"),
             "height": as_float(self.height, "Layout.height"),
-            "landmark_ids": tuple(
-                as_int(v, f"Layout.landmark_ids[{i}]")
-                for i, v in enumerate(as_list(self.landmark_ids, "Layout.landmark_ids"))
-            ),
-            "landmark_positions": tuple(
-                as_floats(p, 2, f"Layout.landmark_positions[{i}]")
-                for i, p in enumerate(as_list(self.landmark_positions, "Layout.landmark_positions"))
+            "landmark_ids": _as_ids(self.landmark_ids),
+            "landmark_positions": as_float_rows(
+                self.landmark_positions, 2, "Layout.landmark_positions"
             ),
             "obstacles": tuple(
                 as_polygon(p, f"Layout.obstacles[{k}]")
                 for k, p in enumerate(as_list(self.obstacles, "Layout.obstacles"))
             ),
-            "walls": tuple(
-                as_floats(w, 4, f"Layout.walls[{k}]")
-                for k, w in enumerate(as_list(self.walls, "Layout.walls"))
-            ),
+            "walls": as_float_rows(self.walls, 4, "Layout.walls"),
             "start_pose": as_floats(self.start_pose, 3, "Layout.start_pose"),
         }
         if not isinstance(self.name, str):
@@ -249,17 +284,7 @@ class Layout:
         object.__setattr__(
             self,
             "_obstacle_bboxes",
-            tuple(
-                (
-                    min(x for x, _ in p),
-                    min(y for _, y in p),
-                    max(x for x, _ in p),
-                    max(y for _, y in p),
-                )
-                if p
-                else (math.inf, math.inf, -math.inf, -math.inf)
-                for p in fields["obstacles"]
-            ),
+            tuple(_bbox(p) for p in fields["obstacles"]),
         )
 
     @property

@@ -141,6 +141,37 @@ def test_construction_normalises_numpy_inputs() -> None:
     assert hash(layout) == hash(make(landmark_ids=(4, 7)))
 
 
+def test_tuples_of_floats_are_kept_and_anything_else_coerced_or_refused() -> None:
+    kept = ((2.0, 8.0), (8.0, 8.0))
+    assert make(landmark_positions=kept).landmark_positions is kept  # nothing to coerce
+    mixed = make(
+        landmark_ids=(0, np.int64(1)),
+        landmark_positions=((2, 8.0), (np.float32(8.0), 8.0)),
+        obstacles=(tuple((int(x), y) for x, y in SQUARE),),
+        walls=[(1, 3, 3, 3)],
+    )
+    assert mixed == make()
+    assert all(type(v) is int for v in mixed.landmark_ids)
+    assert all(type(c) is float for p in mixed.landmark_positions for c in p)
+    assert all(type(c) is float for p in mixed.obstacles[0] for c in p)
+    assert all(type(c) is float for c in mixed.walls[0])
+    with pytest.raises(ValueError, match=r"landmark_positions\[1\] must have 2 numbers"):
+        make(landmark_positions=((2.0, 8.0), (8.0, 8.0, 1.0)))
+    with pytest.raises(ValueError, match=r"walls\[0\] must have 4 numbers"):
+        make(walls=((1.0, 3.0, 3.0),))
+    with pytest.raises(TypeError, match=r"obstacles\[0\] vertex 1"):
+        make(obstacles=(((4.0, 4.0), (6.0, "4"), (6.0, 6.0)),))
+
+
+def test_obstacle_bounding_boxes_span_their_vertices() -> None:
+    layout = make(obstacles=(SQUARE, ((7.0, 1.0), (9.0, 2.0), (7.5, 2.5)), ()))
+    assert layout._obstacle_bboxes == (
+        (4.0, 4.0, 6.0, 6.0),
+        (7.0, 1.0, 9.0, 2.5),
+        (math.inf, math.inf, -math.inf, -math.inf),
+    )
+
+
 def test_geometry_helpers() -> None:
     assert segment_distance(0.0, 1.0, -1.0, 0.0, 1.0, 0.0) == pytest.approx(1.0)
     assert segment_distance(3.0, 0.0, -1.0, 0.0, 1.0, 0.0) == pytest.approx(2.0)
