@@ -99,9 +99,10 @@ def parse_actions(
         raise ValueError(
             f"actions must have shape ({num_envs}, 2) (speed, turn rate), got {arr.shape}"
         )
-    if np.isfinite(arr).all():  # the common case: nothing to mask
+    finite_values = np.isfinite(arr)
+    if finite_values.all():  # the common case: nothing to mask
         return np.clip(arr, -1.0, 1.0)
-    finite = np.isfinite(arr).all(axis=1)
+    finite = finite_values.all(axis=1)
     if not finite[active].all():
         bad = np.flatnonzero(active & ~finite)
         raise ValueError(f"actions must be finite; sub-envs {bad.tolist()} are {arr[bad]}")
