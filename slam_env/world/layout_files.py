@@ -24,6 +24,7 @@ from slam_env.world.layouts import (
     Layout,
     Point,
     as_float,
+    as_float_rows,
     as_floats,
     as_int,
     as_list,
@@ -107,10 +108,7 @@ def layout_from_dict(d: Mapping[str, Any]) -> Layout:
         _obstacle_from(o, k)
         for k, o in enumerate(as_list(d.get("obstacles", []), "layout 'obstacles'"))
     )
-    walls = tuple(
-        as_floats(w, 4, f"layout 'walls'[{k}]")
-        for k, w in enumerate(as_list(d.get("walls", []), "layout 'walls'"))
-    )
+    walls = as_float_rows(d.get("walls", []), 4, "layout 'walls'")
     kwargs: dict[str, Any] = {}
     if "start" in d:
         kwargs["start_pose"] = as_floats(d["start"], 3, "layout 'start'")
