@@ -5,7 +5,8 @@ full (3+2n)×(3+2n) matrices everywhere, nothing clever. Deliberately independen
 ``slam_env.ekf``: the models are re-derived here from seeds 000 and 004.
 
 * Prediction: Σ = G Σ Gᵀ + R with G = blockdiag(G_x, I), R = blockdiag(R_x, 0),
-  R_x = V M Vᵀ (odometry) or B Σu Bᵀ (velocity).
+  R_x = V M Vᵀ (odometry, plus two sideways terms, see ``predict``) or B Σu Bᵀ
+  (velocity).
 * Correction: full-width H (2×D per observation, stacked 2k×D in batch mode),
   K = Σ Hᵀ (H Σ Hᵀ + Q)⁻¹, μ += K ν (bearing innovations wrapped),
   Σ = (I − K H) Σ (I − K H)ᵀ + K Q Kᵀ (Joseph).
@@ -24,6 +25,24 @@ import math
 import numpy as np
 
 CORRECTED, INITIALISED, REJECTED = 0, 1, 2
+# The odometry reading drops the sideways part of a motion under 1 mm: uniform within
+# ±1 mm, a variance of (1 mm)²/3 per position axis.
+DROPPED_SIDEWAYS_VARIANCE = 1e-6 / 3.0
+
+
+def odometry_sideways_noise(th, u, alphas):
+    """What the filter adds to seed 000's R_x = V M Vᵀ (3×3): across the direction of
+    travel n = (−sin, cos)(θ + δrot1), the second-order term var(δrot1)·var(δtr) of
+    the product δtr·δrot1 (V M Vᵀ's δtr²·var(δrot1) vanishes with δtr, its noise does
+    not), and on each position axis the variance of the sideways part of a motion under
+    1 mm, which the odometry reading drops."""
+    rot1, trans, rot2 = (float(v) for v in u)
+    a1, a2, a3, a4 = alphas
+    var_rot1 = a1 * rot1**2 + a2 * trans**2
+    var_trans = a3 * trans**2 + a4 * (rot1**2 + rot2**2)
+    n = np.array([-math.sin(th + rot1), math.cos(th + rot1), 0.0])
+    dropped = np.diag([DROPPED_SIDEWAYS_VARIANCE, DROPPED_SIDEWAYS_VARIANCE, 0.0])
+    return var_rot1 * var_trans * np.outer(n, n) + dropped
 
 
 def wrap(a):
@@ -106,7 +125,7 @@ class DenseEKFSLAM:
                     a1 * rot2**2 + a2 * trans**2,
                 ]
             )
-            Rx = V @ M @ V.T
+            Rx = V @ M @ V.T + odometry_sideways_noise(th, u, self.alphas)
         else:
             dp, dth = (float(v) for v in u)
             sp, sth, bp, bth = self.control_noise

@@ -125,11 +125,11 @@ class IdealEKF:
         pose estimate before it)."""
         u = checks.float_array(u, "u", (self.motion.control_dim,))
         point = self._x[:3] if at_pose is None else checks.float_array(at_pose, "at_pose", (3,))
-        G_x, J_u = self.motion.jacobians(point, u)
+        G_x, _ = self.motion.jacobians(point, u)
         G = np.eye(self._x.shape[0])
         G[:3, :3] = G_x
         P = G @ self._P @ G.T
-        P[:3, :3] += J_u @ self.motion.noise_cov(u, self.noise) @ J_u.T
+        P[:3, :3] += self.motion.pose_noise(point, u, self.noise)
         self._P = P
         self._x[:3] = self.motion.motion(self._x[:3], u)
 

@@ -218,6 +218,9 @@ class InvariantEKFSLAM(dense_ekf.DenseEKFSLAM):
         G = self.noise_jacobian(u)
         M = action_cov(self.motion_model, u, self.alphas, self.control_noise)
         self.P = F @ self.P @ F.T + G @ M @ G.T
+        if self.motion_model == "odometry":
+            # The filter's sideways terms, on the position only: J_r leaves them as they are.
+            self.P[:3, :3] += dense_ekf.odometry_sideways_noise(self.mu[2], u, self.alphas)
         self.mu = compose(self.motion_model, self.mu, u)
 
     # ----------------------------------------------------------------- correction

@@ -4,7 +4,9 @@ keep behaviour (a move, a speed-up) shows at once if it did not.
 
 Kernels compiled for another CPU may round a reassociated sum differently, so the file
 holds one set of pins per CPU (``by_cpu``), each taken from the code before the
-redesign (970af96). ``python -m tests.pinned_streams --write`` records the current
+redesign (970af96); the ActiveSLAM sets were taken again when the odometry model's
+prediction gained its two sideways terms (a change of behaviour, docs/filter.md).
+``python -m tests.pinned_streams --write`` records the current
 code's hashes for this machine's CPU; with ``--only NAME...`` it re-pins those option
 sets alone and drops them from the other CPUs' pins (do it only when a change of
 behaviour is meant, and say so in the commit). Another CPU's pins are recomputed here

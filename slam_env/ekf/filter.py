@@ -484,7 +484,9 @@ class EKFSLAM(BeliefReads):
 
         Only the robot block and the robot–map cross-covariance change (seed 000
         §2.1): ``P_xx ← G P_xx Gᵀ + R_x``, ``P_xm ← G P_xm`` with ``R_x = V M Vᵀ``
-        (odometry) or ``B Σu Bᵀ`` (velocity). Landmarks do not move. O(n). A
+        plus two sideways terms (odometry, see
+        :func:`slam_env.kernels.base.models.odometry_predict`) or ``B Σu Bᵀ`` (velocity).
+        Landmarks do not move. O(n). A
         prediction whose covariance would overflow is refused (``FloatingPointError``).
         """
         u_row = self._u_row

@@ -146,11 +146,14 @@ class MotionModel:
     """A motion model as the filter uses it.
 
     ``motion(pose, u) -> pose'``; ``jacobians(pose, u) -> (∂g/∂pose, ∂g/∂u)``;
-    ``noise_cov(u, params) -> control covariance`` (M or Σu) so that
-    ``R_x = J_u · noise_cov · J_uᵀ``; ``control_dim`` is the length of u;
+    ``noise_cov(u, params) -> control covariance`` (M or Σu), the linearised part
+    ``J_u · noise_cov · J_uᵀ`` of the pose noise; ``control_dim`` is the length of u;
     ``linearise(x, y, θ, u, params)`` the scalar prediction (next pose, G by its two
-    free entries, R_x). ``code`` is the model's number in the kernels
-    (:data:`slam_env.kernels.base.models.ODOMETRY` / ``VELOCITY``).
+    free entries, R_x); :meth:`pose_noise` that R_x as a 3×3 array (the odometry
+    model's adds two sideways terms to V M Vᵀ,
+    :func:`slam_env.kernels.base.models.odometry_predict`). ``code`` is the model's
+    number in the kernels (:data:`slam_env.kernels.base.models.ODOMETRY` /
+    ``VELOCITY``).
     """
 
     name: str
@@ -160,6 +163,11 @@ class MotionModel:
     jacobians: Callable[..., tuple[np.ndarray, np.ndarray]]
     noise_cov: Callable[..., np.ndarray]
     linearise: Callable[..., tuple[float, float, float, float, float, tuple[float, ...]]]
+
+    def pose_noise(self, pose, u, params) -> np.ndarray:
+        """R_x (3×3), the noise the filter's prediction adds to the pose block."""
+        r00, r01, r02, r11, r12, r22 = self.linearise(*_pose_floats(pose), u, params)[5]
+        return np.array([[r00, r01, r02], [r01, r11, r12], [r02, r12, r22]])
 
 
 MOTION_MODELS: dict[str, MotionModel] = {

@@ -53,6 +53,10 @@ def test_nees_of_an_exact_estimate_is_zero_and_of_a_singular_miss_inf(d):
     if d == 3:  # through the adjugate: det ≤ 0 is inf, whatever the error
         assert metrics.nees(np.ones(3), singular) == math.inf
         assert metrics.nees(np.ones(3), -np.eye(3)) == math.inf
+        # det > 0 with two negative eigenvalues: the quadratic form is −1, not a NEES
+        indefinite = np.diag([-1.0, -1.0, 1.0])
+        assert metrics.nees(np.array([1.0, 0.0, 0.0]), indefinite) == math.inf
+        assert metrics.nees(np.array([0.0, 0.0, 2.0]), indefinite) == 4.0
 
 
 def test_map_rmse_by_hand():

@@ -11,6 +11,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from references import dense_ekf
 from slam_env.ekf import EKFSLAM
 from slam_env.ekf.models import (
     MEASUREMENT_MODELS,
@@ -85,6 +86,8 @@ class DenseFirstEstimates:
         G[:3, :3] = G_x
         R = np.zeros((d, d))
         R[:3, :3] = V @ cov_u @ V.T
+        if self.motion == "odometry":
+            R[:3, :3] += dense_ekf.odometry_sideways_noise(pose[2], u, ALPHAS)
         self.Sigma = G @ self.Sigma @ G.T + R
         self.mu[:3] = new
         self.first[:3] = new

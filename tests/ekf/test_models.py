@@ -8,6 +8,7 @@ import math
 import numpy as np
 import pytest
 
+from references import dense_ekf
 from slam_env.ekf import models
 from slam_env.ekf.models import MEASUREMENT_MODELS, MOTION_MODELS
 from slam_env.world.frames import wrap_angle
@@ -75,6 +76,9 @@ def test_scalar_motion_linearise_equals_the_model(name):
         nx, ny, nth, a, b, r = mm.linearise(*pose.tolist(), u.tolist(), params)
         G, J = mm.jacobians(pose, u)
         Rx = J @ mm.noise_cov(u, params) @ J.T
+        if name == "odometry":
+            Rx += dense_ekf.odometry_sideways_noise(pose[2], u, params)
+        np.testing.assert_allclose(mm.pose_noise(pose, u, params), Rx, rtol=1e-12, atol=1e-15)
         np.testing.assert_allclose([nx, ny, nth], mm.motion(pose, u), rtol=0, atol=1e-14)
         np.testing.assert_allclose(G, [[1, 0, a], [0, 1, b], [0, 0, 1]], rtol=0, atol=1e-14)
         upper = Rx[np.triu_indices(3)]

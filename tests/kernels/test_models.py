@@ -8,6 +8,7 @@ import math
 import numpy as np
 import pytest
 
+from references import dense_ekf
 from slam_env.kernels.base import models as km
 from slam_env.world.frames import wrap_float
 
@@ -61,7 +62,8 @@ def test_noise_variances_follow_the_seeds_bit_for_bit():
 )
 def test_motion_predict_is_the_model_its_jacobians_and_its_noise(model, u):
     """The next pose, G = [[1, 0, a], [0, 1, b], [0, 0, 1]] and R_x = J M Jᵀ (J = V or B),
-    against the seed formulas written out here (the velocity model ignores u[2])."""
+    against the seed formulas written out here (the velocity model ignores u[2]), plus
+    the odometry model's sideways terms of the dense reference."""
     x, y, th = 1.0, 2.0, 0.5
     noise = (0.1, 0.2, 0.3, 0.4)
     nx, ny, nth, a, b, *R = km.motion_predict(model, x, y, th, *u, *noise)
@@ -72,15 +74,18 @@ def test_motion_predict_is_the_model_its_jacobians_and_its_noise(model, u):
         G = (-trans * s, trans * c)
         J = np.array([[-trans * s, c, 0], [trans * c, s, 0], [1, 0, 1]])
         M = np.diag(km.odometry_variances(*u, *noise))
+        extra = dense_ekf.odometry_sideways_noise(th, u, noise)
     else:
         c, s = math.cos(th), math.sin(th)
         pose = (x + u[0] * c, y + u[0] * s, wrap_float(th + u[1]))
         G = (-u[0] * s, u[0] * c)
         J = np.array([[c, 0], [s, 0], [0, 1]])
         M = np.diag(km.velocity_variances(u[0], u[1], *noise))
+        extra = np.zeros((3, 3))
     np.testing.assert_allclose((nx, ny, nth), pose, rtol=0, atol=1e-15)
     np.testing.assert_allclose((a, b), G, rtol=0, atol=1e-15)
-    np.testing.assert_allclose(R, (J @ M @ J.T)[np.triu_indices(3)], rtol=1e-14, atol=1e-15)
+    expected = (J @ M @ J.T + extra)[np.triu_indices(3)]
+    np.testing.assert_allclose(R, expected, rtol=1e-14, atol=1e-15)
 
 
 def test_a_landmark_on_the_robot_is_singular_for_range_bearing_only():

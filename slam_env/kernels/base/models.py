@@ -33,6 +33,17 @@ RANGE_BEARING, CARTESIAN = 0, 1
 
 # --------------------------------------------------------------------------- odometry (seed 000)
 
+# Below this translation (m) the odometry reading's direction of motion is noise: a contact
+# nudging a robot that turns in place would otherwise give any δrot1 up to ±π/2 and,
+# through α1·δrot1², a heading noise of tenths of a radian for a sub-millimetre push. The
+# reading then keeps the displacement along the heading and drops the sideways part.
+MIN_ODOMETRY_TRANSLATION = 1e-3
+# The variance (m²) of that dropped sideways part, at most MIN_ODOMETRY_TRANSLATION each
+# way (a uniform spread's a²/3), which the prediction adds to each position axis: without
+# it a turn on the spot from a known pose predicts a sideways variance of ~1e-13 m² and
+# one sub-millimetre nudge gives a NEES of 1e10.
+DROPPED_SIDEWAYS_VARIANCE = MIN_ODOMETRY_TRANSLATION * MIN_ODOMETRY_TRANSLATION / 3.0
+
 
 @kernel
 def odometry_variances(
@@ -80,20 +91,28 @@ def odometry_predict(
     a4: float,
 ) -> tuple[float, float, float, float, float, float, float, float, float, float, float]:
     """``(x', y', θ', a, b, r00, r01, r02, r11, r12, r22)``: the next pose, G by (a, b)
-    and the upper triangle of R_x = V M Vᵀ."""
+    and the upper triangle of R_x = V M Vᵀ + m0·m1·n nᵀ + σd²·I₂ (position block).
+
+    Seed 000's V M Vᵀ gives the sideways direction n = (−sin, cos)(θ + δrot1) the
+    variance δtr²·m0, which vanishes with δtr however noisy δtr is: the product of the
+    noises of δtr and δrot1 moves the robot sideways by var(δtr)·var(δrot1) = m0·m1 in
+    variance (the Gaussian second-order term of g's δtr·δrot1 product, the one that
+    survives δtr → 0). σd² is :data:`DROPPED_SIDEWAYS_VARIANCE`, for the sideways part
+    of a sub-millimetre motion that the reading drops."""
     nx, ny, nth = odometry_motion(x, y, th, rot1, trans, rot2)
     a, b, c, s = odometry_jacobian(th, rot1, trans)
     m0, m1, m2 = odometry_variances(rot1, trans, rot2, a1, a2, a3, a4)
+    sideways = m0 * m1
     return (
         nx,
         ny,
         nth,
         a,
         b,
-        a * a * m0 + c * c * m1,
-        a * b * m0 + c * s * m1,
+        a * a * m0 + c * c * m1 + s * s * sideways + DROPPED_SIDEWAYS_VARIANCE,
+        a * b * m0 + c * s * m1 - c * s * sideways,
         a * m0,
-        b * b * m0 + s * s * m1,
+        b * b * m0 + s * s * m1 + c * c * sideways + DROPPED_SIDEWAYS_VARIANCE,
         b * m0,
         m0 + m2,
     )

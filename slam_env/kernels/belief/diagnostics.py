@@ -36,7 +36,9 @@ def pose_nees(
 ) -> float:
     """eᵀ P⁻¹ e of the pose error e = (e0, e1, e2) for the symmetric 3×3 P with upper
     triangle (a, b, c; d, f; g), through its adjugate: 0 for a zero error (an exactly
-    known pose, exactly right), inf when det P ≤ 0 (or NaN)."""
+    known pose, exactly right), inf when det P ≤ 0 (or NaN) or when the quadratic form
+    comes out negative (P not positive definite although det P > 0: rounding can leave
+    a nearly singular P so)."""
     if e0 == 0.0 and e1 == 0.0 and e2 == 0.0:
         return 0.0
     cof_a = d * g - f * f
@@ -51,6 +53,8 @@ def pose_nees(
         + (a * d - b * b) * e2 * e2
         + 2.0 * (cof_b * e0 * e1 + cof_c * e0 * e2 + (b * c - a * f) * e1 * e2)
     )
+    if not quad >= 0.0:
+        return math.inf
     return quad / det
 
 

@@ -16,14 +16,14 @@ import numpy as np
 
 from slam_env.kernels.base.angles import wrap
 from slam_env.kernels.base.compiling import kernel
-from slam_env.kernels.base.models import odometry_variances, velocity_variances
+from slam_env.kernels.base.models import (
+    MIN_ODOMETRY_TRANSLATION,
+    odometry_variances,
+    velocity_variances,
+)
 from slam_env.kernels.base.random import normal_pair
 
 HALF_PI = 0.5 * math.pi
-# Below this translation (m) the direction of motion is noise: a contact nudging a
-# robot that turns in place would otherwise give any δrot1 up to ±π/2 and, through
-# α1·δrot1², a heading noise of tenths of a radian for a sub-millimetre push.
-MIN_ODOMETRY_TRANSLATION = 1e-3
 
 
 def odometry_uniforms(control_dim: int) -> int:
