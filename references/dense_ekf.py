@@ -24,10 +24,23 @@ import math
 
 import numpy as np
 
+from slam_env.kernels.base.models import MIN_ODOMETRY_TRANSLATION
+
 CORRECTED, INITIALISED, REJECTED = 0, 1, 2
-# The odometry reading drops the sideways part of a motion under 1 mm: uniform within
-# ±1 mm, a variance of (1 mm)²/3 per position axis.
-DROPPED_SIDEWAYS_VARIANCE = 1e-6 / 3.0
+# The odometry reading drops the sideways part of a motion under the sensor's threshold:
+# spread uniformly within ±threshold, a variance of threshold²/3 per position axis.
+DROPPED_SIDEWAYS_VARIANCE = MIN_ODOMETRY_TRANSLATION**2 / 3.0
+
+
+def odometry_noise_diagonal(u, alphas):
+    """The diagonal of seed 000's M: (var δrot1, var δtr, var δrot2)."""
+    rot1, trans, rot2 = (float(v) for v in u)
+    a1, a2, a3, a4 = alphas
+    return (
+        a1 * rot1**2 + a2 * trans**2,
+        a3 * trans**2 + a4 * (rot1**2 + rot2**2),
+        a1 * rot2**2 + a2 * trans**2,
+    )
 
 
 def odometry_sideways_noise(th, u, alphas):
@@ -36,11 +49,8 @@ def odometry_sideways_noise(th, u, alphas):
     the product δtr·δrot1 (V M Vᵀ's δtr²·var(δrot1) vanishes with δtr, its noise does
     not), and on each position axis the variance of the sideways part of a motion under
     1 mm, which the odometry reading drops."""
-    rot1, trans, rot2 = (float(v) for v in u)
-    a1, a2, a3, a4 = alphas
-    var_rot1 = a1 * rot1**2 + a2 * trans**2
-    var_trans = a3 * trans**2 + a4 * (rot1**2 + rot2**2)
-    n = np.array([-math.sin(th + rot1), math.cos(th + rot1), 0.0])
+    var_rot1, var_trans, _ = odometry_noise_diagonal(u, alphas)
+    n = np.array([-math.sin(th + float(u[0])), math.cos(th + float(u[0])), 0.0])
     dropped = np.diag([DROPPED_SIDEWAYS_VARIANCE, DROPPED_SIDEWAYS_VARIANCE, 0.0])
     return var_rot1 * var_trans * np.outer(n, n) + dropped
 
@@ -96,7 +106,6 @@ class DenseEKFSLAM:
         D = self.mu.size
         if self.motion_model == "odometry":
             rot1, trans, rot2 = (float(v) for v in u)
-            a1, a2, a3, a4 = self.alphas
             g = np.array(
                 [
                     x + trans * math.cos(th + rot1),
@@ -118,13 +127,7 @@ class DenseEKFSLAM:
                     [1.0, 0.0, 1.0],
                 ]
             )
-            M = np.diag(
-                [
-                    a1 * rot1**2 + a2 * trans**2,
-                    a3 * trans**2 + a4 * (rot1**2 + rot2**2),
-                    a1 * rot2**2 + a2 * trans**2,
-                ]
-            )
+            M = np.diag(odometry_noise_diagonal(u, self.alphas))
             Rx = V @ M @ V.T + odometry_sideways_noise(th, u, self.alphas)
         else:
             dp, dth = (float(v) for v in u)

@@ -486,8 +486,8 @@ class EKFSLAM(BeliefReads):
         §2.1): ``P_xx ← G P_xx Gᵀ + R_x``, ``P_xm ← G P_xm`` with ``R_x = V M Vᵀ``
         plus two sideways terms (odometry, see
         :func:`slam_env.kernels.base.models.odometry_predict`) or ``B Σu Bᵀ`` (velocity).
-        Landmarks do not move. O(n). A
-        prediction whose covariance would overflow is refused (``FloatingPointError``).
+        Landmarks do not move. O(n). A prediction whose covariance would overflow is
+        refused (``FloatingPointError``).
         """
         u_row = self._u_row
         floats = type(u) is tuple and len(u) == len(u_row)  # the short path: no array
