@@ -65,7 +65,10 @@ nitpicky = True
 # Every other cross-reference must resolve.
 nitpick_ignore_regex = [
     (r"py:.*", r"(builtins\.)?(int|float|bool|str|bytes|object|type|list|dict|tuple|set)"),
-    (r"py:.*", r"(collections\.abc|typing|pathlib|os|enum|dataclasses|argparse|inspect)\..+"),
+    (
+        r"py:.*",
+        r"(collections\.abc|typing|pathlib|os|enum|dataclasses|argparse|inspect|threading)\..+",
+    ),
     (r"py:.*", r"(numpy|np)(\..+)?"),
     (r"py:.*", r"(gymnasium|gym)(\..+)?"),
     (r"py:.*", r"(ObsType|ActType)"),  # gymnasium's type variables

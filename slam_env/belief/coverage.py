@@ -318,6 +318,17 @@ class CoverageGrid:
         :meth:`step_all` returns, ``counts`` scratch)."""
         return (*self._state, self.new_cells, self._out, self._counts)
 
+    def kernel_args_of(self, rows: slice) -> tuple[Any, ...]:
+        """:attr:`kernel_args` over the worlds ``rows`` (views of their rows, the same
+        tables), with scratch of their own: what one thread's chunk of them takes."""
+        worlds = (self._flat, self._n_swept, self._held, self._class_counts, self.new_cells)
+        return (
+            *self.tables,
+            *(a[rows] for a in worlds),
+            self._out[rows],
+            np.empty_like(self._counts),
+        )
+
     @property
     def _state(self) -> tuple[Any, ...]:
         """The :class:`CoverageTables` fields and the worlds' state, as

@@ -71,6 +71,10 @@ class BeliefEntropy:
         """``(slots, floor, prior_log_det, scratch)``, the entropy kernel's settings."""
         return (self.max_landmarks, ENTROPY_FLOOR, self.prior_log_det, self._scratch)
 
+    def kernel_args_of_a_thread(self) -> tuple[int, float, float, np.ndarray]:
+        """:attr:`kernel_args` with scratch of their own, for a thread of their own."""
+        return (self.max_landmarks, ENTROPY_FLOOR, self.prior_log_det, np.empty_like(self._scratch))
+
     def finish(
         self, P: np.ndarray, n: np.ndarray, out: np.ndarray, ok: np.ndarray, active: np.ndarray
     ) -> None:

@@ -32,6 +32,7 @@ from slam_env.belief.reward import REWARD_TERMS
 from slam_env.config import EnvConfig
 from slam_env.core.active_options import ActiveSLAMOptions
 from slam_env.core.batch import BatchCore
+from slam_env.core.chunks import rows_of
 from slam_env.core.random_blocks import RandomBlocks
 from slam_env.core.raw import RawCore
 from slam_env.ekf import EKFSLAM
@@ -51,13 +52,18 @@ from slam_env.world.layouts import Layout
 _DIAGNOSTIC_ROW = {name: i for i, name in enumerate(DIAGNOSTICS)}
 
 
-class _StepArgs(NamedTuple):
-    """What :class:`ActiveCore` passes its step's kernels that never changes."""
+class _Chunk(NamedTuple):
+    """What :class:`ActiveCore` passes its step's kernels over one thread's chunk of
+    the sub-envs' rows (all of them for None) that never changes: views of the core's
+    arrays, the diagnostics and scratch of its own."""
 
+    rows: slice | None
     filter_inputs: tuple  # filter_step's, before the masks
-    filter_state: tuple  # … after them, before the workspaces
+    masks: tuple  # (touched, stepping)
+    filter_state: tuple  # … after the masks, before the workspaces
     filter_books: tuple  # … after the association flag
     outputs: tuple  # belief_outputs's, before the masks
+    finish: tuple  # (P, n, entropy, ok) for the entropies the kernel leaves
 
 
 class ActiveCore(BatchCore):
@@ -70,8 +76,7 @@ class ActiveCore(BatchCore):
     the arrays until the next call; :meth:`observation`/:meth:`info` copy one sub-env's
     out, :meth:`observations`/:meth:`infos` all. ``max_updates``: the iSAM2 updates a
     smoothing belief may hold in an episode (its share of the memory budget,
-    :func:`slam_env.budget.smoother_updates`); ``first_env``: where this core is one
-    chunk of a vector env, the index of its first sub-env (for the errors).
+    :func:`slam_env.budget.smoother_updates`).
     """
 
     has_belief = True
@@ -83,7 +88,6 @@ class ActiveCore(BatchCore):
         options: ActiveSLAMOptions,
         *,
         max_updates: int,
-        first_env: int = 0,
     ) -> None:
         self.config = config
         self.num_envs = b = num_envs
@@ -118,7 +122,6 @@ class ActiveCore(BatchCore):
             self.smoothers = SmootherBatch(
                 self.filters,
                 max_updates,
-                first_env,
                 relinearize_threshold=options.smoothing_relinearize_threshold,
                 relinearize_skip=options.smoothing_relinearize_skip,
                 keyframes=options.smoothing_keyframes,
@@ -167,7 +170,9 @@ class ActiveCore(BatchCore):
         self.updated = np.zeros(b, dtype=bool)
         self._counted = np.zeros(b, dtype=bool)  # the updates that succeeded
         self._touched = np.zeros(b, dtype=bool)  # the sub-envs a step moves or resets
-        self._args: _StepArgs | None = None  # the kernels' fixed arguments (_step_args)
+        # Each thread's kernel arguments (_chunk) and workspaces, made at the first step.
+        self._chunks: list[_Chunk] | None = None
+        self._workspaces: list[tuple] = []
         self.diagnostics = np.zeros((len(DIAGNOSTICS), b))
         self.entropy = np.zeros(b)
         self._entropy_ok = np.zeros(b, dtype=bool)
@@ -214,48 +219,97 @@ class ActiveCore(BatchCore):
     def blocks(self) -> RandomBlocks:
         return self.raw.blocks
 
-    # The kernels' fixed arguments hold views of the coverage grid (rebuilt when it is
-    # unpickled): never pickled, rebuilt at the first step.
+    # The kernels' fixed arguments hold views of the coverage grid and of the core's
+    # arrays (rebuilt when unpickled): never pickled, rebuilt at the first step.
+    _TRANSIENT = ("_chunks", "_workspaces")
+
     def __getstate__(self) -> dict[str, Any]:
-        return {k: v for k, v in self.__dict__.items() if k != "_args"}
+        return {k: v for k, v in self.__dict__.items() if k not in self._TRANSIENT}
 
     def __setstate__(self, state: dict[str, Any]) -> None:
         self.__dict__.update(state)
-        self._args = None
+        self._chunks, self._workspaces = None, []
 
-    def _step_args(self) -> _StepArgs:
-        """The arguments of the step's kernels but the masks and the filters'
-        workspaces (which grow), built once: their arrays never change, and building
-        the tuples at every step cost as much as the calls."""
-        if self._args is None:
-            raw, filters = self.raw, self.filters
-            out = raw.out
-            readings = (out.odometry, out.detections, out.ids, raw.det_count, raw.det_ids)
-            # The map error pairs each filter landmark with its true one: the IDs are
-            # the truth's, unless the filter made its own.
-            truth_of_slots = self.slot_truth if self.associates else filters.slot_to_id
-            self._args = _StepArgs(
-                filter_inputs=(readings, not self.associates),
-                filter_state=(filters.storage, filters.config, filters.u, filters.correction_io),
-                filter_books=(
-                    (self.updated, self.failed, self._counted, self.in_a_row),
-                    (self.slot_truth, self._n_before, self.score_step, self.score_episode),
+    def use_threads(self, num_threads: int) -> None:
+        """Step the sub-envs' compiled stages on ``num_threads`` threads, each over a
+        contiguous chunk of the rows (:class:`~slam_env.core.chunks.RowThreads`)."""
+        self.raw.use_threads(num_threads)
+        self._chunks, self._workspaces = None, []
+
+    def close(self) -> None:
+        """Join the threads of :meth:`use_threads` (idempotent)."""
+        self.raw.close()
+
+    def _make_chunks(self) -> None:
+        """Every chunk's :class:`_Chunk` and workspaces, if not made yet: before the
+        threads run, which only read them. Their arrays never change (the workspaces,
+        which grow, are replaced in place), and building the tuples at every step cost
+        as much as the calls."""
+        if self._chunks is None:
+            rows = self.raw.threads.rows
+            self._chunks = [self._chunk_args(r) for r in rows]
+            self._workspaces = [
+                self.filters.workspaces if r is None else self.filters.workspaces_of(r)
+                for r in rows
+            ]
+
+    def _chunk_args(self, rows: slice | None) -> _Chunk:
+        """A :class:`_Chunk` over the sub-envs ``rows`` (None: all of them)."""
+        raw, filters = self.raw, self.filters
+        out = raw.out
+
+        def own(arrays: Any) -> tuple[np.ndarray, ...]:
+            return tuple(rows_of(a, rows) for a in arrays)
+
+        readings = own((out.odometry, out.detections, out.ids, raw.det_count, raw.det_ids))
+        # The map error pairs each filter landmark with its true one: the IDs are
+        # the truth's, unless the filter made its own.
+        truth_of_slots = self.slot_truth if self.associates else filters.slot_to_id
+        params, modes, joint_gates = filters.config
+        if rows is None:
+            diagnostics, entropy_of = self.diagnostics, self._entropy_of.kernel_args
+            coverage = None if self.coverage is None else self.coverage.kernel_args
+        else:  # (diagnostics, B): a chunk's columns are not contiguous; copied back
+            diagnostics = self.diagnostics[:, rows].copy()
+            entropy_of = self._entropy_of.kernel_args_of_a_thread()
+            coverage = None if self.coverage is None else self.coverage.kernel_args_of(rows)
+        belief = own((filters.x, filters.P, filters.n, filters.slot_to_id))
+        entropy, entropy_ok = rows_of(self.entropy, rows), rows_of(self._entropy_ok, rows)
+        return _Chunk(
+            rows=rows,
+            filter_inputs=(readings, not self.associates),
+            masks=(rows_of(self._touched, rows), rows_of(raw._stepping, rows)),
+            filter_state=(
+                own(filters.storage),
+                (rows_of(params, rows), rows_of(modes, rows), joint_gates),
+                rows_of(filters.u, rows),
+                own(filters.correction_io),
+            ),
+            filter_books=(
+                own((self.updated, self.failed, self._counted, self.in_a_row)),
+                own((self.slot_truth, self._n_before, self.score_step, self.score_episode)),
+            ),
+            outputs=(
+                belief,
+                own((truth_of_slots, raw.worlds.poses, self.truth)),
+                diagnostics,
+                entropy_of,
+                entropy,
+                entropy_ok,
+                own(self._passthrough_readings),
+                coverage,
+                rows_of(self._tail, rows),
+                rows_of(self.swept_fraction, rows),
+                (
+                    self._weights,
+                    rows_of(raw.collided, rows),
+                    rows_of(self.last, rows),
+                    rows_of(self.terms, rows),
+                    rows_of(self.rewards, rows),
                 ),
-                outputs=(
-                    (filters.x, filters.P, filters.n, filters.slot_to_id),
-                    (truth_of_slots, raw.worlds.poses, self.truth),
-                    self.diagnostics,
-                    self._entropy_of.kernel_args,
-                    self.entropy,
-                    self._entropy_ok,
-                    self._passthrough_readings,
-                    None if self.coverage is None else self.coverage.kernel_args,
-                    self._tail,
-                    self.swept_fraction,
-                    (self._weights, raw.collided, self.last, self.terms, self.rewards),
-                ),
-            )
-        return self._args
+            ),
+            finish=(belief[1], belief[2], entropy, entropy_ok),
+        )
 
     @property
     def _idle(self) -> np.ndarray:
@@ -271,7 +325,7 @@ class ActiveCore(BatchCore):
         measured from it."""
         raw, filters = self.raw, self.filters
         self.check_room(stepping)
-        layouts = raw.advance(commands, stepping, resetting)
+        layouts = raw.begin(commands, stepping, resetting)
         touched = self._touched
         np.copyto(touched, stepping)
         worlds = raw.worlds
@@ -290,15 +344,40 @@ class ActiveCore(BatchCore):
             if self._local is not None:
                 self._encoding.reset(b)
             touched[b] = True
-        args = self._step_args()
-        filtering = (*args.filter_inputs, touched, stepping, *args.filter_state)
-        if not filter_step(*filtering, filters.workspaces, self.associates, *args.filter_books):
-            filters.grow_for(self.updated)
-            filter_step(*filtering, filters.workspaces, self.associates, *args.filter_books)
-        if self.smoothers is not None:
-            self.smoothers.follow(filters, touched, stepping, self.failed)
-        self._observe(touched, stepping)
+        threads = raw.threads
+        self._make_chunks()
+        if self.smoothers is None:
+            threads.run(self._step_chunk)
+        else:  # the smoothers follow the filters, in Python, before the outputs
+            threads.run(self._sense_and_filter)
+            self.smoothers.follow(filters, touched, raw._stepping, self.failed)
+            threads.run(self._outputs)
+        if threads.count > 1:
+            for chunk in self._chunks:
+                self.diagnostics[:, chunk.rows] = chunk.outputs[2]
+        raw.finish(resetting)
+        self._encode()
         return layouts
+
+    def _step_chunk(self, k: int) -> None:
+        """Chunk ``k``'s compiled stages (in its thread): the raw step, the filters and
+        the belief's outputs."""
+        self._sense_and_filter(k)
+        self._outputs(k)
+
+    def _sense_and_filter(self, k: int) -> None:
+        """Chunk ``k``'s raw step and filters."""
+        self.raw.sense(k)
+        chunk = self._chunks[k]
+        filtering = (*chunk.filter_inputs, *chunk.masks, *chunk.filter_state)
+        rest = (self.associates, *chunk.filter_books)
+        if not filter_step(*filtering, self._workspaces[k], *rest):
+            if chunk.rows is None:
+                self.filters.grow_for(self.updated)
+                self._workspaces[k] = self.filters.workspaces
+            else:
+                self._workspaces[k] = self.filters.workspaces_of(chunk.rows)
+            filter_step(*filtering, self._workspaces[k], *rest)
 
     def check_room(self, stepping: np.ndarray) -> None:
         """``RuntimeError``, nothing changed, where a smoothing belief that steps would
@@ -322,18 +401,19 @@ class ActiveCore(BatchCore):
             raw.out.bumper if "bumper" in keys else none,
         )
 
-    def _observe(self, touched: np.ndarray, stepping: np.ndarray) -> None:
-        """Diagnostics, entropy, coverage, observation, reward and ``diverged`` of the
-        ``touched`` worlds (the reward paid to the ``stepping`` ones)."""
-        filters, raw = self.filters, self.raw
-        outputs = self._step_args().outputs
-        belief, reward = outputs[0], outputs[-1]
-        left = belief_outputs(*outputs, touched, stepping)
-        if left:  # the rare entropy that round-off left to the eigenvalues
-            self._entropy_of.finish(filters.P, filters.n, self.entropy, self._entropy_ok, touched)
-            step_reward(
-                reward, self.entropy, self.diagnostics, self.swept_fraction, touched, stepping
-            )
+    def _outputs(self, k: int) -> None:
+        """Chunk ``k``'s diagnostics, entropy, coverage and reward."""
+        chunk = self._chunks[k]
+        outputs = chunk.outputs
+        if belief_outputs(*outputs, *chunk.masks):  # the rare entropy left by round-off
+            touched, stepping = chunk.masks
+            self._entropy_of.finish(*chunk.finish, touched)
+            step_reward(outputs[-1], outputs[4], outputs[2], outputs[9], touched, stepping)
+
+    def _encode(self) -> None:
+        """The observation and ``diverged`` of the touched worlds."""
+        filters, raw, touched = self.filters, self.raw, self._touched
+        belief = (filters.x, filters.P, filters.n, filters.slot_to_id)
         if self.egocentric is not None:
             self._encoding.encode_batch(belief, self._tail, self.egocentric, self.clipped, touched)
         elif self._local is not None:

@@ -42,9 +42,13 @@ class BatchCore:
         """One step of the active sub-envs (see :meth:`advance`)."""
         self.advance(commands, active, ())
 
+    def use_threads(self, num_threads: int) -> None:
+        """Step the compiled stages on ``num_threads`` threads (see the cores')."""
+        raise NotImplementedError
+
     def close(self) -> None:
-        """Nothing to release (a :class:`~slam_env.core.chunks.ChunkedCore` joins its
-        threads)."""
+        """Join the threads of :meth:`use_threads`."""
+        raise NotImplementedError
 
     def true_pose(self, index: int) -> np.ndarray:
         """(3,) sub-env ``index``'s true robot pose (x, y m, θ rad): a view of its row."""

@@ -55,8 +55,10 @@ class RandomBlocks:
         """(B, width): the last step's uniforms (reused by the next step)."""
         return self._uniforms
 
-    def refill(self, n: int, rngs: Sequence[np.random.Generator]) -> None:
+    def refill(self, n: int, rngs: Sequence[np.random.Generator], first: int = 0) -> None:
         """Restart the first ``n`` sub-envs listed in ``used_up`` on fresh blocks, each
-        from its own generator in ``rngs``."""
-        for b in self._used_up[:n].tolist():
-            self.restart(b, rngs[b])
+        from its own generator in ``rngs``; ``first``: where the kernel ran over the
+        rows from ``first`` on, the list is its view's (from ``first``, indices from
+        ``first``)."""
+        for b in self._used_up[first : first + n].tolist():
+            self.restart(first + b, rngs[first + b])

@@ -14,6 +14,7 @@ import numpy as np
 
 from slam_env.config import EnvConfig
 from slam_env.core.batch import BatchCore
+from slam_env.core.chunks import RowThreads, rows_of
 from slam_env.core.random_blocks import RandomBlocks
 from slam_env.info_keys import info_row
 from slam_env.kernels.base.pinning import pin
@@ -135,17 +136,18 @@ class RawCore(BatchCore):
         self._sensor_fields = tuple(self._sensor)
         self._fault_fields = tuple(self._faults)
         self._params_fields = tuple(self._params)
-        self._out_fields = tuple(self.out)  # the active mask of one sub-env
+        self._out_fields = tuple(self.out)
         self._views: dict[int, dict[str, np.ndarray]] = {}
         self._touched = np.zeros(b, dtype=bool)  # the sub-envs a step moves or resets
         self._stepping = np.zeros(b, dtype=bool)  # the sub-envs a step moves
-        # raw_step's compiled code pinned to its arguments, and those arguments but the
-        # last two (see _raw_step).
-        self._step_call: tuple[Any, tuple[Any, ...]] | None = None
+        # Each chunk's raw_step, its compiled code pinned to its arguments, those
+        # arguments but the last two, and the geometry they view (see _raw_step).
+        self._step_calls: list[Any] | None = None
+        self.threads = RowThreads(num_envs, 1)  # use_threads
 
     # Views of one sub-env's rows (see _row_views) and the kernel's call: never pickled
     # (a view would come back as a copy, detached from its array), rebuilt.
-    _TRANSIENT = ("_views", "_step_call")
+    _TRANSIENT = ("_views", "_step_calls")
 
     def __getstate__(self) -> dict[str, Any]:
         return {k: v for k, v in self.__dict__.items() if k not in self._TRANSIENT}
@@ -153,7 +155,7 @@ class RawCore(BatchCore):
     def __setstate__(self, state: dict[str, Any]) -> None:
         self.__dict__.update(state)
         self._views = {}
-        self._step_call = None
+        self._step_calls = None
 
     def _row_views(self, index: int) -> dict[str, np.ndarray]:
         """Views of sub-env ``index``'s rows of the observation, made at the first call
@@ -166,6 +168,17 @@ class RawCore(BatchCore):
         return views
 
     # ------------------------------------------------------------------ stepping
+    def use_threads(self, num_threads: int) -> None:
+        """Step the sub-envs' compiled stages on ``num_threads`` threads, each over a
+        contiguous chunk of the rows (:class:`~slam_env.core.chunks.RowThreads`)."""
+        self.threads.close()
+        self.threads = RowThreads(self.num_envs, num_threads)
+        self._step_calls = None
+
+    def close(self) -> None:
+        """Join the threads of :meth:`use_threads` (idempotent)."""
+        self.threads.close()
+
     def advance(
         self, commands: np.ndarray, stepping: np.ndarray, resetting: Sequence[int]
     ) -> list[Layout]:
@@ -174,10 +187,21 @@ class RawCore(BatchCore):
         those listed in ``resetting`` (their generators already in :attr:`rngs`), in the
         same kernel calls. A reset scan has no faults and pays nothing. Returns the new
         episodes' layouts, in the order of ``resetting``."""
+        layouts = self.begin(commands, stepping, resetting)
+        self.threads.run(self.sense)
+        self.finish(resetting)
+        return layouts
+
+    def begin(
+        self, commands: np.ndarray, stepping: np.ndarray, resetting: Sequence[int]
+    ) -> list[Layout]:
+        """The Python of :meth:`advance` before its compiled stages: the robots' moves
+        and the resets' new worlds. Returns the new episodes' layouts."""
         worlds = self.worlds
         worlds.move(commands, stepping, self.collided)
-        np.copyto(self._stepping, stepping)  # into the array the call is pinned to
-        stepping = self._stepping
+        if self._step_calls is None:  # each chunk's, made in its thread (_raw_step)
+            self._step_calls = [None] * self.threads.count
+        np.copyto(self._stepping, stepping)  # into the array the calls are pinned to
         touched = self._touched
         np.copyto(touched, stepping)
         layouts = []
@@ -190,69 +214,99 @@ class RawCore(BatchCore):
             self.control[b] = 0.0
             self.control_true[b] = 0.0
             touched[b] = True
+        return layouts
+
+    def sense(self, k: int) -> None:
+        """The compiled stages of :meth:`advance` over chunk ``k``'s rows (in its
+        thread): the odometry readings, the kidnappings, the scans and observations."""
         if self.faults_on and self.config.faults.kidnap_rate > 0.0:
             # The kidnapping comes between the odometry reading and the scans.
-            self._raw_step(read=True, sense=False)
-            self._kidnap(self.blocks.uniforms, stepping)
-            self._raw_step(read=False, sense=True)
+            self._raw_step(k, read=True, sense=False)
+            self._kidnap(self.threads.rows[k])
+            self._raw_step(k, read=False, sense=True)
         else:
-            self._raw_step(read=True, sense=True)
+            self._raw_step(k, read=True, sense=True)
+
+    def finish(self, resetting: Sequence[int]) -> None:
+        """The Python of :meth:`advance` after its compiled stages: the flags, and the
+        new episodes' rewards of 0."""
         out = self.out
         if self.config.terminate_when_all_detected:
-            np.logical_and(out.all_seen, stepping, out=self.terminated)
+            np.logical_and(out.all_seen, self._stepping, out=self.terminated)
         for b in resetting:
             out.new_terms[b] = 0.0
             out.collision_terms[b] = 0.0
             out.rewards[b] = 0.0
             self.terminated[b] = False
-        return layouts
 
-    def _kidnap(self, uniforms: np.ndarray, active: np.ndarray) -> None:
+    def _kidnap(self, rows: slice | None) -> None:
+        """Kidnap the stepping robots of ``rows`` whose uniform says so."""
         rate = self.config.faults.kidnap_rate
-        self.kidnapped[active] = False
-        if rate > 0.0:
-            events = active & (uniforms[:, self._fault_offset + KIDNAP_UNIFORM] < rate)
-            for b in np.flatnonzero(events).tolist():
-                self.kidnapped[b] = self.worlds.kidnap(b, self.rngs[b])
+        active = rows_of(self._stepping, rows)
+        rows_of(self.kidnapped, rows)[active] = False
+        uniforms = rows_of(self.blocks.uniforms, rows)
+        events = active & (uniforms[:, self._fault_offset + KIDNAP_UNIFORM] < rate)
+        first = 0 if rows is None else rows.start
+        for b in (first + np.flatnonzero(events)).tolist():
+            self.kidnapped[b] = self.worlds.kidnap(b, self.rngs[b])
 
-    def _raw_step(self, read: bool, sense: bool) -> None:
-        """If ``read``, the uniforms of the touched sub-envs and the odometry readings
-        (and their faults) of the stepping ones; if ``sense``, the scans and
-        observations: one call of :func:`~slam_env.kernels.stream.raw_step.raw_step`, and
-        another after refilling used-up blocks."""
+    def _raw_step(self, k: int, read: bool, sense: bool) -> None:
+        """For chunk ``k``'s rows: if ``read``, the uniforms of the touched sub-envs and
+        the odometry readings (and their faults) of the stepping ones; if ``sense``,
+        the scans and observations: one call of
+        :func:`~slam_env.kernels.stream.raw_step.raw_step`, and another after refilling
+        used-up blocks."""
         worlds = self.worlds
-        call = self._step_call
+        calls = self._step_calls
+        call = calls[k]
         # A reset may replace the geometry's arrays: then the call is pinned anew.
-        if call is None or call[1][4] is not worlds.geometry_fields:
-            args = (
-                self.blocks.kernel_args,
-                (worlds.before, self.velocity_model, self._noise, self.control_true, self.control),
-                (self._faults.odometry_dropout, self._bias, self._fault_offset)
-                if self.faults_on
-                else None,
-                (worlds.poses, worlds.landmarks, worlds.landmark_ids, worlds.id_order),
-                worlds.geometry_fields,
-                self._sensor_fields,
-                self._scan_offset,
-                self._touched,
-                (self.det_z, self.det_ids, self.det_rows, self.det_count),
-                (self._fault_fields, self._fault_offset) if self.faults_on else None,
-                (self._beam_angles, self._scan_reach, self.scan),
-                self.collided,
-                self.seen,
-                self._params_fields,
-                self._out_fields,
-                self._stepping,
-                sensing_scratch(
-                    worlds.landmarks.shape[1],
-                    worlds.geometry.tree.shape[1],
-                    self._beam_angles.shape[0],
-                ),
-            )
-            call = self._step_call = (pin(raw_step, *args, read, sense), args)
-        compiled, args = call
+        if call is None or call[2] is not worlds.geometry_fields:
+            args = self._raw_step_args(self.threads.rows[k])
+            call = calls[k] = (pin(raw_step, *args, read, sense), args, worlds.geometry_fields)
+        compiled, args, _ = call
+        rows = self.threads.rows[k]
         while used_up := compiled(*args, read, sense):  # nothing done yet
-            self.blocks.refill(used_up, self.rngs)
+            self.blocks.refill(used_up, self.rngs, 0 if rows is None else rows.start)
+
+    def _raw_step_args(self, rows: slice | None) -> tuple[Any, ...]:
+        """:func:`~slam_env.kernels.stream.raw_step.raw_step`'s arguments but the last
+        two, over the sub-envs ``rows`` (None: all), with scratch of their own."""
+        worlds = self.worlds
+
+        def own(arrays: Any) -> tuple[np.ndarray, ...]:
+            return tuple(rows_of(a, rows) for a in arrays)
+
+        return (
+            own(self.blocks.kernel_args),
+            (
+                rows_of(worlds.before, rows),
+                self.velocity_model,
+                self._noise,
+                rows_of(self.control_true, rows),
+                rows_of(self.control, rows),
+            ),
+            (self._faults.odometry_dropout, self._bias, self._fault_offset)
+            if self.faults_on
+            else None,
+            own((worlds.poses, worlds.landmarks, worlds.landmark_ids, worlds.id_order)),
+            own(worlds.geometry_fields),
+            self._sensor_fields,
+            self._scan_offset,
+            rows_of(self._touched, rows),
+            own((self.det_z, self.det_ids, self.det_rows, self.det_count)),
+            (self._fault_fields, self._fault_offset) if self.faults_on else None,
+            (self._beam_angles, self._scan_reach, rows_of(self.scan, rows)),
+            rows_of(self.collided, rows),
+            rows_of(self.seen, rows),
+            self._params_fields,
+            own(self._out_fields),
+            rows_of(self._stepping, rows),
+            sensing_scratch(
+                worlds.landmarks.shape[1],
+                worlds.geometry.tree.shape[1],
+                self._beam_angles.shape[0],
+            ),
+        )
 
     @property
     def beam_angles(self) -> np.ndarray:

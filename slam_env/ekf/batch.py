@@ -84,6 +84,16 @@ class FilterBatch:
         """Grow the workspaces for the observations of the worlds of ``mask``."""
         self._grow_workspaces(min(int(self.counts[mask].max(initial=0)), self.z.shape[1]))
 
+    def workspaces_of(self, rows: slice) -> tuple:
+        """Workspaces of their own for the corrections of the filters ``rows`` in a
+        thread of their own: as large as :attr:`workspaces`, or as the observations of
+        those filters' :attr:`counts` need, if more."""
+        needed = min(int(self.counts[rows].max(initial=0)), self.z.shape[1])
+        return correction_workspaces(
+            self.x.shape[1], self.template.max_landmarks, max(needed, self._room),
+            self.associates,
+        )  # fmt: skip
+
     @property
     def storage(self) -> tuple[np.ndarray, ...]:
         """The state arrays, in :attr:`EKFSLAM._STATE` order."""

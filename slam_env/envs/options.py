@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import dataclasses
 import inspect
-from collections.abc import Mapping, Sequence
+from collections.abc import Mapping
 from typing import Any
 
 from slam_env.budget import check_budget, smoother_updates, world_size
@@ -20,11 +20,9 @@ __all__ = [
     "ENV_ARGUMENTS",
     "active_config",
     "active_core",
-    "active_cores",
     "check_active_options",
     "options_signature",
     "raw_core",
-    "raw_cores",
 ]
 
 # The envs' own arguments besides the config options (for the list of valid names).
@@ -34,40 +32,23 @@ ACTIVE_ARGUMENTS = ENV_ARGUMENTS + ActiveSLAMOptions.argument_names()
 
 def raw_core(num_envs: int, options: Mapping[str, Any], owner: str) -> RawCore:
     """The raw core of ``num_envs`` sub-envs of ``slam_env/Landmarks-v0`` with
-    ``options`` (the config's, flat or nested, or a whole ``config``), checked first;
-    an unknown name is refused as Python refuses it for the function ``owner``."""
-    return raw_cores([num_envs], options, owner)[0]
-
-
-def raw_cores(sizes: Sequence[int], options: Mapping[str, Any], owner: str) -> list[RawCore]:
-    """A raw core of each size of ``sizes`` (the chunks of one vector env), all with
-    ``options``, checked first for all of their sub-envs together (an unknown name as
-    Python refuses it for the function ``owner``)."""
+    ``options`` (the config's, flat or nested, or a whole ``config``), checked first
+    for all of its sub-envs together; an unknown name is refused as Python refuses it
+    for the function ``owner``."""
     check_option_names(options, ENV_ARGUMENTS, owner)
     options = dict(options)
     config = make_config(options.pop("config", None), **options)
     # Everything that scales work or memory, for all the sub-envs, before it is built.
-    check_budget(config, world_size(config), num_envs=sum(sizes))
-    return [RawCore(config, n) for n in sizes]
+    check_budget(config, world_size(config), num_envs=num_envs)
+    return RawCore(config, num_envs)
 
 
 def active_core(num_envs: int, options: Mapping[str, Any], owner: str) -> ActiveCore:
     """The active-SLAM core of ``num_envs`` sub-envs of ``slam_env/ActiveSLAM-v0`` with
     ``options``: its own (:class:`ActiveSLAMOptions`) and the world's, checked first (an
     unknown name as Python refuses it for the function ``owner``)."""
-    return active_cores([num_envs], options, owner)[0]
-
-
-def active_cores(sizes: Sequence[int], options: Mapping[str, Any], owner: str) -> list[ActiveCore]:
-    """An active-SLAM core of each size of ``sizes`` (the chunks of one vector env), all
-    with ``options``, checked first for all of their sub-envs together (an unknown name
-    as Python refuses it for the function ``owner``)."""
-    active, config = check_active_options(sum(sizes), options, owner)
-    firsts = [sum(sizes[:k]) for k in range(len(sizes))]
-    return [
-        ActiveCore(config, n, active, max_updates=smoother_updates(sum(sizes)), first_env=first)
-        for n, first in zip(sizes, firsts, strict=True)
-    ]
+    active, config = check_active_options(num_envs, options, owner)
+    return ActiveCore(config, num_envs, active, max_updates=smoother_updates(num_envs))
 
 
 def check_active_options(

@@ -4,8 +4,8 @@
 (and the same for ``slam_env/ActiveSLAM-v0``) returns a :class:`SlamVectorEnv` whose
 sub-env i, reset with seed s, replays the single env reset with seed s + i exactly:
 the single envs are the same core with B = 1, and every sub-env draws from its own
-generator, seeded as the single env would be. With ``num_threads=T`` the B sub-envs are
-T chunks, each a core of its own, stepped concurrently (see :class:`SlamVectorEnv`).
+generator, seeded as the single env would be. With ``num_threads=T`` the core's compiled
+stages run over T chunks of the sub-envs concurrently (see :class:`SlamVectorEnv`).
 """
 
 from __future__ import annotations
@@ -21,10 +21,10 @@ from gymnasium.utils import seeding
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
-from slam_env.core.chunks import ChunkedCore, chunk_sizes, thread_count
+from slam_env.core.chunks import thread_count
 from slam_env.ekf import EKFSLAM
 from slam_env.envs.actions import DISCRETE_PRIMITIVES, parse_actions
-from slam_env.envs.options import active_cores, raw_cores
+from slam_env.envs.options import active_core, raw_core
 from slam_env.envs.pictures import Pictures
 from slam_env.envs.registration import DEFAULT_MAX_EPISODE_STEPS
 from slam_env.smoothing import ISAM2SLAM
@@ -107,10 +107,10 @@ class SlamVectorEnv(VectorEnv):
 
     Args:
         num_envs: B.
-        cores_factory: ``(sizes, options, owner) -> [core, ...]``, a batched core of
-            the ID for each size (:func:`slam_env.envs.options.raw_cores` for
-            ``Landmarks-v0``), the options checked for all of them together, an unknown
-            one refused as Python refuses it for the function ``owner``.
+        core_factory: ``(num_envs, options, owner) -> core``, the batched core of the
+            ID's sub-envs (:func:`slam_env.envs.options.raw_core` for ``Landmarks-v0``),
+            the options checked for all of them together, an unknown one refused as
+            Python refuses it for the function ``owner``.
         max_episode_steps: truncation, as ``gym.make``'s ``TimeLimit`` does for the single
             env (``None``: never).
         autoreset_mode: an :class:`~gymnasium.vector.AutoresetMode` or its value, also
@@ -124,15 +124,16 @@ class SlamVectorEnv(VectorEnv):
             ``step`` (which refuses with ``ResetNeeded`` otherwise).
         render_mode: ``None`` or ``"rgb_array"`` (``render()`` returns a frame per
             sub-env, the single env's frame of the same state).
-        num_threads: T, how many chunks of the sub-envs are stepped concurrently: an
-            int from 1 to B, or ``None`` (default) for the cores this process may run on
-            (``len(os.sched_getaffinity(0))``) but at most B // 128
-            (:func:`slam_env.core.chunks.default_threads`: below 128 sub-envs a thread,
-            threads cost more than they save), so 1 below 256. T = 1 steps all B sub-envs
-            with one core in the calling thread; T > 1 splits them into T contiguous
-            chunks (sizes as even as can be), each a core of its own
-            (:class:`slam_env.core.chunks.ChunkedCore`): chunk 0 in the calling thread,
-            the others on a pool of T - 1 threads kept between steps, joined by
+        num_threads: T, how many threads step the sub-envs: an int from 1 to B, or
+            ``None`` (default) for the cores this process may run on
+            (``len(os.sched_getaffinity(0))``) but at most B // 64
+            (:func:`slam_env.core.chunks.default_threads`: below 64 sub-envs a thread,
+            threads cost about what they save), so 1 below 128. One core holds every
+            sub-env and runs a step's Python once, in the calling thread; with T > 1
+            its compiled stages (the scans, the filters, the belief's outputs) run
+            over T contiguous chunks of the sub-envs (sizes as even as can be)
+            concurrently (:class:`slam_env.core.chunks.RowThreads`): chunk 0 in the
+            calling thread, the others on T - 1 threads kept between steps, joined by
             ``close()``. The streams are the same bit for bit whatever T is. A call in
             which a chunk raised raises that exception once every chunk is done, and
             the env then refuses to step (``ResetNeeded``) until a reset of every
@@ -144,7 +145,7 @@ class SlamVectorEnv(VectorEnv):
     def __init__(
         self,
         num_envs: int,
-        cores_factory: Callable[..., list[Any]],
+        core_factory: Callable[..., Any],
         *,
         max_episode_steps: int | None = DEFAULT_MAX_EPISODE_STEPS,
         autoreset_mode: AutoresetMode | str = AutoresetMode.NEXT_STEP,
@@ -175,9 +176,8 @@ class SlamVectorEnv(VectorEnv):
             raise ValueError(f"render_mode must be None or 'rgb_array', got {render_mode!r}")
         self.num_envs = int(num_envs)
         self.num_threads = thread_count(num_threads, self.num_envs)
-        sizes = chunk_sizes(self.num_envs, self.num_threads)
-        cores = cores_factory(sizes, options, f"{type(self).__name__}.__init__")
-        self.core = cores[0] if len(cores) == 1 else ChunkedCore(cores)
+        self.core = core_factory(self.num_envs, options, f"{type(self).__name__}.__init__")
+        self.core.use_threads(self.num_threads)
         self.config = self.core.config
         self.autoreset_mode = mode
         self.metadata = {
@@ -423,7 +423,7 @@ class LandmarksVectorEnv(SlamVectorEnv):
     the sub-envs are :class:`slam_env.envs.landmarks.LandmarksEnv`)."""
 
     def __init__(self, num_envs: int, **kwargs: Any) -> None:
-        super().__init__(num_envs, raw_cores, **kwargs)
+        super().__init__(num_envs, raw_core, **kwargs)
 
 
 class ActiveSLAMVectorEnv(SlamVectorEnv):
@@ -432,7 +432,7 @@ class ActiveSLAMVectorEnv(SlamVectorEnv):
     options)."""
 
     def __init__(self, num_envs: int, **kwargs: Any) -> None:
-        super().__init__(num_envs, active_cores, **kwargs)
+        super().__init__(num_envs, active_core, **kwargs)
 
     def filter(self, index: int) -> EKFSLAM:
         """Sub-env ``index``'s EKF-SLAM filter (its state is the vector env's; a view,

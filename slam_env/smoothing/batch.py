@@ -48,21 +48,18 @@ class SmootherBatch:
     """One :class:`ISAM2SLAM` per filter of a :class:`FilterBatch`, each made by
     :func:`smoother_like` from the batch's template with ``options``; ``max_updates``:
     the iSAM2 updates each may hold in an episode (the env's share of the memory
-    budget, :func:`slam_env.budget.smoother_updates`), ``first_env`` the index of the
-    first in the env's errors (a chunk of a vector env)."""
+    budget, :func:`slam_env.budget.smoother_updates`)."""
 
     def __init__(
         self,
         filters: FilterBatch,
         max_updates: int,
-        first_env: int = 0,
         **options: Any,
     ) -> None:
         b = filters.x.shape[0]
         first = smoother_like(filters.template, **options)
         self.smoothers = [first] + [first.copy() for _ in range(b - 1)]
         self.max_updates = max_updates
-        self._first_env = first_env
 
     def check_room(self, stepping: np.ndarray) -> None:
         """``RuntimeError`` (nothing changed) where a stepping smoother has recorded
@@ -71,7 +68,7 @@ class SmootherBatch:
             held = self.smoothers[b].n_updates
             if held >= self.max_updates:
                 raise RuntimeError(
-                    f"the smoothing belief of sub-env {self._first_env + b} holds {held:,} "
+                    f"the smoothing belief of sub-env {b} holds {held:,} "
                     "updates this episode, its share of the memory budget "
                     "(slam_env.budget.smoother_updates): end episodes sooner "
                     "(max_episode_steps) or give smoothing_keyframes"

@@ -107,28 +107,39 @@ def test_the_step_filters_as_the_standalone_filter_fed_the_same_readings(associa
     assert reference.n_landmarks > 8
 
 
-def test_an_entropy_left_to_the_eigenvalues_is_paid_once_known() -> None:
+@pytest.mark.parametrize(("num_envs", "threads", "index"), [(1, 1, 0), (4, 2, 3)])
+def test_an_entropy_left_to_the_eigenvalues_is_paid_once_known(
+    num_envs: int, threads: int, index: int
+) -> None:
     """A covariance that round-off left not positive definite to the entropy kernel's
     Cholesky factor: its entropy comes from the eigenvalues, and the step's reward is
-    paid on that entropy."""
-    env = gym.make("slam_env/ActiveSLAM-v0")
-    env.reset(seed=0)
+    paid on that entropy (in a single env, and in a threaded vector env's chunk)."""
+    venv = gym.make_vec(
+        "slam_env/ActiveSLAM-v0",
+        num_envs=num_envs,
+        vectorization_mode="vector_entry_point",
+        num_threads=threads,
+    )
+    venv.reset(seed=0)
     for _ in range(5):
-        env.step(np.array([0.5, 0.1], np.float32))
-    core = env.unwrapped._core
+        venv.step(np.tile(np.array([0.5, 0.1], np.float32), (num_envs, 1)))
+    core = venv.unwrapped.core
     filters = core.filters
-    d = 3 + 2 * int(filters.n[0])
-    filters.P[0, 2, 2] = -1.0  # a negative heading variance: no Cholesky factor
-    baseline = core.last[0, 0]
-    everyone = np.ones(1, dtype=bool)
-    core._observe(everyone, everyone)
-    assert not core._entropy_ok[0]
-    expected = core._entropy_of(filters.P[0, :d, :d])
+    d = 3 + 2 * int(filters.n[index])
+    filters.P[index, 2, 2] = -1.0  # a negative heading variance: no Cholesky factor
+    baseline = core.last[index, 0]
+    others = core.entropy.copy()
+    assert core._touched.all() and core.raw._stepping.all()  # as the last step left them
+    core._outputs(threads - 1)  # the chunk holding sub-env `index`
+    assert not core._entropy_ok[index]
+    expected = core._entropy_of(filters.P[index, :d, :d])
     assert math.isfinite(expected)
-    assert core.entropy[0] == expected
+    assert core.entropy[index] == expected
     weight = ActiveSLAMRewardWeights().information_gain
-    assert core.terms[0, 0] == weight * (baseline - expected)
-    assert core.rewards[0] == sum(core.terms[0].tolist())
+    assert core.terms[index, 0] == weight * (baseline - expected)
+    assert core.rewards[index] == sum(core.terms[index].tolist())
+    assert core._entropy_ok[:index].all() and (core.entropy[:index] == others[:index]).all()
+    venv.close()
 
 
 @pytest.mark.parametrize("env_id", ["slam_env/ActiveSLAM-v0", "slam_env/Landmarks-v0"])

@@ -248,13 +248,18 @@ def test_a_belief_at_its_share_of_the_budget_refuses_the_step_and_changes_nothin
                         num_threads=2, **ISAM2)  # fmt: skip
     venv.reset(seed=0)
     assert isinstance(venv.unwrapped.smoother(-1), ISAM2SLAM)
-    cores = venv.unwrapped.core.cores
-    assert cores[0].smoothers.max_updates == smoother_updates(4) == 262_144 // 4
-    cores[1].smoothers.max_updates = 1
-    poses = venv.unwrapped.core.cores[0].worlds.poses.copy()
-    with pytest.raises(RuntimeError, match="sub-env 2 holds 1 updates"):
+    core = venv.unwrapped.core
+    assert core.smoothers.max_updates == smoother_updates(4) == 262_144 // 4
+    for _ in range(3):
+        venv.step(np.ones((4, 2), dtype=np.float32) * [[0.0], [1.0], [0.0], [1.0]])
+    held = [venv.unwrapped.smoother(b).n_updates for b in range(4)]
+    core.smoothers.max_updates = most = max(held)  # the first sub-env at it is refused
+    poses = core.worlds.poses.copy()
+    state = pickle.dumps(core)
+    with pytest.raises(RuntimeError, match=f"sub-env {held.index(most)} holds {most} updates"):
         venv.step(np.zeros((4, 2), dtype=np.float32))
-    np.testing.assert_array_equal(cores[0].worlds.poses, poses)  # chunk 0 did not step
+    np.testing.assert_array_equal(core.worlds.poses, poses)  # no chunk stepped
+    assert pickle.dumps(core) == state
     venv.close()
 
 

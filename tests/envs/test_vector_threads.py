@@ -1,10 +1,11 @@
-"""The native vector env on T threads: its chunks, the default T, refused thread
-counts, the threads (a pool kept between steps, joined by close), a chunk that
-raises, pickling. (The streams on 1, 2 and 3 threads are held to the single envs' in
-tests/envs/test_vector.py.)"""
+"""The native vector env on T threads: the chunks of rows, the default T, refused
+thread counts, the threads (kept between steps, joined by close, ended with their
+core), a chunk that raises, pickling. (The streams on 1, 2 and 3 threads are held to
+the single envs' in tests/envs/test_vector.py.)"""
 
 from __future__ import annotations
 
+import gc
 import pickle
 import threading
 
@@ -14,12 +15,14 @@ import pytest
 
 import slam_env  # noqa: F401  (registers the env IDs)
 from slam_env.core.active import ActiveCore
-from slam_env.core.chunks import ChunkedCore, chunk_sizes
+from slam_env.core.chunks import RowThreads, chunk_sizes, rows_of
 from slam_env.core.raw import RawCore
 from tests.streams import digest
 
 LANDMARKS = "slam_env/Landmarks-v0"
 ACTIVE = "slam_env/ActiveSLAM-v0"
+# The job each core's threads run over their chunks.
+JOB = {LANDMARKS: "sense", ACTIVE: "_step_chunk"}
 
 
 def native(env_id: str, num_envs: int, **kwargs):
@@ -34,38 +37,46 @@ def test_chunks_are_contiguous_and_as_even_as_can_be() -> None:
     assert chunk_sizes(5, 3) == [2, 2, 1]
     assert chunk_sizes(64, 5) == [13, 13, 13, 13, 12]
     assert chunk_sizes(4, 4) == [1, 1, 1, 1]
+    assert RowThreads(5, 3).rows == [slice(0, 2), slice(2, 4), slice(4, 5)]
+    assert RowThreads(5, 1).rows == [None]  # one chunk: the arrays themselves
+
+
+def test_a_chunk_views_the_rows_with_the_array_type() -> None:
+    array = np.zeros((5, 3, 2))
+    view = rows_of(array, slice(2, 4))
+    assert view.base is array and view.shape == (2, 3, 2) and view.flags.c_contiguous
+    assert rows_of(array, None) is array
 
 
 @pytest.mark.parametrize(("env_id", "kind"), [(LANDMARKS, RawCore), (ACTIVE, ActiveCore)])
-def test_each_thread_steps_a_core_of_its_own_over_its_chunk(env_id: str, kind: type) -> None:
+def test_one_core_holds_every_sub_env_and_its_threads_split_the_rows(
+    env_id: str, kind: type
+) -> None:
     one = native(env_id, 5, num_threads=1)
     assert type(one.core) is kind and one.core.num_envs == 5 and one.num_threads == 1
     three = native(env_id, 5, num_threads=3)
-    assert isinstance(three.core, ChunkedCore) and three.num_threads == 3
-    assert [type(c) for c in three.core.cores] == [kind] * 3
-    assert [c.num_envs for c in three.core.cores] == [2, 2, 1]
-    assert three.core.starts == [0, 2, 4, 5]
-    # Nothing a step writes is shared between chunks: their own worlds, generators.
-    worlds = [c.worlds for c in three.core.cores]
-    assert len({id(w) for w in worlds}) == 3
-    assert len({id(w.poses) for w in worlds}) == 3
+    assert type(three.core) is kind and three.core.num_envs == 5 and three.num_threads == 3
+    threads = three.core.threads if kind is RawCore else three.core.raw.threads
+    assert threads.rows == [slice(0, 2), slice(2, 4), slice(4, 5)]
     three.reset(seed=0)
     assert len({id(r) for r in three.core.rngs}) == 5
-    assert three.core.locate(3) == (three.core.cores[1], 1)
     for venv in (one, three):
         venv.close()
 
 
-def test_the_default_is_the_cores_the_process_may_use_with_128_envs_a_thread(
+def test_the_default_is_the_cores_the_process_may_use_with_64_envs_a_thread(
     monkeypatch,
 ) -> None:
     from slam_env.core.chunks import ENVS_PER_THREAD, default_threads
 
-    monkeypatch.setattr("os.sched_getaffinity", lambda pid: set(range(8)), raising=False)
-    assert ENVS_PER_THREAD == 128
-    assert [default_threads(b) for b in (1, 5, 255, 256, 383, 384, 4096)] == [1, 1, 1, 2, 2, 3, 8]
+    # This process's affinity (pid 0), not another's.
+    affinity = {0: set(range(8))}
+    monkeypatch.setattr("os.sched_getaffinity", lambda pid: affinity.get(pid, {0}), raising=False)
+    assert ENVS_PER_THREAD == 64
+    assert [default_threads(b) for b in (1, 5, 127, 128, 191, 192, 4096)] == [1, 1, 1, 2, 2, 3, 8]
     venv = native(LANDMARKS, 5)
-    assert venv.num_threads == 1 and isinstance(venv.core, RawCore)
+    assert venv.num_threads == 1
+    venv.close()
     monkeypatch.setattr("os.sched_getaffinity", lambda pid: {0}, raising=False)
     assert default_threads(4096) == 1
 
@@ -92,61 +103,67 @@ def test_the_single_env_takes_no_thread_count() -> None:
         gym.make(LANDMARKS, num_threads=2)
 
 
-def _recording(core, seen: list, failing: list | None = None):
-    """``core.advance`` that notes the thread it runs on, and raises once ``failing``
-    holds something."""
-    advance = core.advance
+def _recording(core, name: str, seen: list, failing: list | None = None):
+    """Patch the job ``name`` that ``core``'s threads run over their chunks so that it
+    notes (chunk, thread) in ``seen``, and raises in chunk ``failing[0]`` once
+    ``failing`` holds something."""
+    job = getattr(core, name)
 
-    def wrapped(*args):
-        seen.append(threading.current_thread())
-        if failing:
-            raise RuntimeError("injected failure in a chunk")
-        return advance(*args)
+    def wrapped(k: int) -> None:
+        seen.append((k, threading.current_thread()))
+        if failing and failing[0] == k:
+            raise RuntimeError(f"injected failure in chunk {k}")
+        job(k)
 
-    return wrapped
+    setattr(core, name, wrapped)
+
+
+def _workers(seen: list) -> set[threading.Thread]:
+    return {t for _, t in seen if t is not threading.main_thread()}
 
 
 @pytest.mark.parametrize("env_id", [LANDMARKS, ACTIVE])
-def test_the_chunks_step_on_pool_threads_and_close_joins_them(env_id: str) -> None:
+def test_the_chunks_step_on_worker_threads_and_close_joins_them(env_id: str) -> None:
     venv = native(env_id, 5, num_threads=3)
-    seen: list[list[threading.Thread]] = [[], [], []]
-    for core, threads in zip(venv.core.cores, seen, strict=True):
-        core.advance = _recording(core, threads)
+    seen: list = []
+    core = venv.core if env_id == LANDMARKS else venv.core.raw
+    _recording(venv.core, JOB[env_id], seen)
     venv.reset(seed=0)
     for _ in range(3):
         venv.step(venv.action_space.sample())
-    # Chunk 0 in the calling thread, the others on the pool's (at most T - 1) threads.
-    assert set(seen[0]) == {threading.main_thread()}
-    workers = set(seen[1] + seen[2])
-    assert threading.main_thread() not in workers and 1 <= len(workers) <= 2
-    assert all(t.is_alive() for t in workers)  # the pool is kept between steps
+    # Chunk 0 in the calling thread, the others each on a thread of its own.
+    assert {t for k, t in seen if k == 0} == {threading.main_thread()}
+    one, two = ({t for k, t in seen if k == c} for c in (1, 2))
+    assert len(one) == len(two) == 1 and one != two and threading.main_thread() not in one
+    workers = one | two
+    assert all(t.is_alive() for t in workers)  # kept between steps
+    assert set(core.threads.threads) == workers
     venv.close()
-    assert not any(t.is_alive() for t in workers)
+    assert not any(t.is_alive() for t in workers) and core.threads.threads == []
     venv.close()  # idempotent
+    seen.clear()
     venv.reset(seed=1)  # as Gymnasium's envs: reset after close works (new threads)
     venv.step(venv.action_space.sample())
-    assert not workers & set(seen[1][-1:] + seen[2][-1:])
+    assert _workers(seen) and not workers & _workers(seen)
     venv.close()
 
 
 @pytest.mark.parametrize("failing", [0, 1, 2])
 def test_a_raising_chunk_surfaces_from_step_and_leaves_no_thread(failing: int) -> None:
     venv = native(ACTIVE, 5, num_threads=3)
-    seen: list[threading.Thread] = []
-    fail: list[bool] = []
-    for k, core in enumerate(venv.core.cores):
-        core.advance = _recording(core, seen, fail if k == failing else None)
+    seen: list = []
+    fail: list[int] = []
+    _recording(venv.core, JOB[ACTIVE], seen, fail)
     venv.reset(seed=0)
     venv.step(venv.action_space.sample())
-    fail.append(True)
+    fail.append(failing)
     before = len(seen)
-    with pytest.raises(RuntimeError, match="injected failure"):
+    with pytest.raises(RuntimeError, match=f"injected failure in chunk {failing}"):
         venv.step(venv.action_space.sample())
-    assert len(seen) == before + 3  # every chunk ran before step raised
-    workers = {t for t in seen if t is not threading.main_thread()}
-    assert workers
-    alive = set(threading.enumerate())
-    assert not workers & alive and not any(t.is_alive() for t in workers)
+    assert sorted(k for k, _ in seen[before:]) == [0, 1, 2]  # every chunk ran first
+    workers = _workers(seen)
+    assert workers and not any(t.is_alive() for t in workers)
+    assert not workers & set(threading.enumerate())
     # Its sub-envs are part-way through the step: it refuses to go on until a reset.
     with pytest.raises(gym.error.ResetNeeded, match="raised part-way"):
         venv.step(venv.action_space.sample())
@@ -159,11 +176,24 @@ def test_a_raising_chunk_surfaces_from_step_and_leaves_no_thread(failing: int) -
     venv.close()
 
 
+def test_the_first_chunk_in_order_is_the_one_raised() -> None:
+    threads = RowThreads(6, 3)
+    done: list[int] = []
+
+    def job(k: int) -> None:
+        done.append(k)
+        if k:
+            raise ValueError(f"chunk {k}")
+
+    with pytest.raises(ValueError, match="chunk 1"):
+        threads.run(job)
+    assert sorted(done) == [0, 1, 2] and threads.threads == []
+
+
 def test_a_raising_reset_needs_a_full_reset_too() -> None:
     venv = native(LANDMARKS, 4, num_threads=2)
-    fail = [True]
-    core = venv.core.cores[1]
-    core.advance = _recording(core, [], fail)
+    fail = [1]
+    _recording(venv.core, JOB[LANDMARKS], [], fail)
     with pytest.raises(RuntimeError, match="injected failure"):
         venv.reset(seed=0)
     with pytest.raises(gym.error.ResetNeeded, match="raised part-way"):
@@ -174,6 +204,17 @@ def test_a_raising_reset_needs_a_full_reset_too() -> None:
     venv.close()
 
 
+def test_threads_end_with_their_core_without_close() -> None:
+    threads = RowThreads(4, 2)
+    threads.run(lambda k: None)
+    (worker,) = threads.threads
+    assert worker.is_alive()
+    del threads
+    gc.collect()
+    worker.join(timeout=10)
+    assert not worker.is_alive()
+
+
 @pytest.mark.parametrize("env_id", [LANDMARKS, ACTIVE])
 def test_a_pickled_threaded_env_continues_identically_on_its_own_threads(env_id: str) -> None:
     venv = native(env_id, 5, num_threads=3, max_episode_steps=40)
@@ -182,10 +223,27 @@ def test_a_pickled_threaded_env_continues_identically_on_its_own_threads(env_id:
     for _ in range(30):
         venv.step(venv.action_space.sample())
     twin = pickle.loads(pickle.dumps(venv))
-    assert twin.num_threads == 3 and twin.core._pool is None  # threads are not pickled
+
+    def threads_of(env):
+        core = env.core
+        return (core if env_id == LANDMARKS else core.raw).threads
+
+    assert twin.num_threads == 3 and threads_of(twin).threads == []  # threads not pickled
     actions = [venv.action_space.sample() for _ in range(60)]
     assert digest([venv.step(a) for a in actions]) == digest([twin.step(a) for a in actions])
-    assert twin.core._pool is not venv.core._pool
+    assert len(threads_of(twin).threads) == 2
+    assert not set(threads_of(twin).threads) & set(threads_of(venv).threads)
     for env in (venv, twin):
         env.close()
         env.close()
+
+
+def test_close_with_a_handed_job_still_pending_ends_every_thread() -> None:
+    for _ in range(50):
+        threads = RowThreads(8, 4)
+        threads.run(lambda k: None)
+        workers = list(threads._workers)
+        for worker in workers:  # handed, perhaps not yet taken
+            worker.hand(lambda k: None)
+        threads.close()
+        assert not any(w.thread.is_alive() for w in workers)
