@@ -63,7 +63,9 @@ class _Chunk(NamedTuple):
     filter_state: tuple  # … after the masks, before the workspaces
     filter_books: tuple  # … after the association flag
     outputs: tuple  # belief_outputs's, before the masks
+    diagnostics: np.ndarray  # (diagnostics, chunk): the core's, or its own to copy back
     finish: tuple  # (P, n, entropy, ok) for the entropies the kernel leaves
+    reward: tuple  # step_reward's arguments before the masks, for those entropies
 
 
 class ActiveCore(BatchCore):
@@ -275,6 +277,14 @@ class ActiveCore(BatchCore):
             coverage = None if self.coverage is None else self.coverage.kernel_args_of(rows)
         belief = own((filters.x, filters.P, filters.n, filters.slot_to_id))
         entropy, entropy_ok = rows_of(self.entropy, rows), rows_of(self._entropy_ok, rows)
+        swept_fraction = rows_of(self.swept_fraction, rows)
+        reward = (
+            self._weights,
+            rows_of(raw.collided, rows),
+            rows_of(self.last, rows),
+            rows_of(self.terms, rows),
+            rows_of(self.rewards, rows),
+        )
         return _Chunk(
             rows=rows,
             filter_inputs=(readings, not self.associates),
@@ -299,16 +309,12 @@ class ActiveCore(BatchCore):
                 own(self._passthrough_readings),
                 coverage,
                 rows_of(self._tail, rows),
-                rows_of(self.swept_fraction, rows),
-                (
-                    self._weights,
-                    rows_of(raw.collided, rows),
-                    rows_of(self.last, rows),
-                    rows_of(self.terms, rows),
-                    rows_of(self.rewards, rows),
-                ),
+                swept_fraction,
+                reward,
             ),
+            diagnostics=diagnostics,
             finish=(belief[1], belief[2], entropy, entropy_ok),
+            reward=(reward, entropy, diagnostics, swept_fraction),
         )
 
     @property
@@ -354,7 +360,7 @@ class ActiveCore(BatchCore):
             threads.run(self._outputs)
         if threads.count > 1:
             for chunk in self._chunks:
-                self.diagnostics[:, chunk.rows] = chunk.outputs[2]
+                self.diagnostics[:, chunk.rows] = chunk.diagnostics
         raw.finish(resetting)
         self._encode()
         return layouts
@@ -404,11 +410,10 @@ class ActiveCore(BatchCore):
     def _outputs(self, k: int) -> None:
         """Chunk ``k``'s diagnostics, entropy, coverage and reward."""
         chunk = self._chunks[k]
-        outputs = chunk.outputs
-        if belief_outputs(*outputs, *chunk.masks):  # the rare entropy left by round-off
+        if belief_outputs(*chunk.outputs, *chunk.masks):  # the rare entropy left by round-off
             touched, stepping = chunk.masks
             self._entropy_of.finish(*chunk.finish, touched)
-            step_reward(outputs[-1], outputs[4], outputs[2], outputs[9], touched, stepping)
+            step_reward(*chunk.reward, touched, stepping)
 
     def _encode(self) -> None:
         """The observation and ``diverged`` of the touched worlds."""

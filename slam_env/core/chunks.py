@@ -35,7 +35,7 @@ __all__ = [
 # little or nothing: on the 2-core development machine T = 2 stepped ActiveSLAM-v0 at
 # 0.95-1.11x T = 1's rate at B = 64, 1.22-1.26x at 128 and 1.26-1.51x at 256
 # (benchmarks/bench_env.py --threads 1 2). The step's Python runs once, in one thread,
-# and two chunks' kernels running at once each took 20-40% longer than one alone.
+# and each of two chunks' kernels running at once took 60-80% longer than alone.
 ENVS_PER_THREAD = 64
 
 

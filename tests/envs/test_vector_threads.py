@@ -247,3 +247,23 @@ def test_close_with_a_handed_job_still_pending_ends_every_thread() -> None:
             worker.hand(lambda k: None)
         threads.close()
         assert not any(w.thread.is_alive() for w in workers)
+
+
+def test_a_chunk_grows_its_own_workspaces_and_keeps_the_stream() -> None:
+    """Many landmarks in view at once outgrow the first workspaces (room for 8
+    observations): each chunk grows its own, and the stream stays T = 1's."""
+    options = {"n_landmarks": 60, "max_range": 8.0, "max_episode_steps": 100}
+    runs, grown = {}, {}
+    for t in (1, 2):
+        venv = native(ACTIVE, 5, num_threads=t, **options)
+        venv.action_space.seed(4)
+        out = [venv.reset(seed=4)]
+        first = [ws[0].shape[0] for ws in venv.core._workspaces]
+        out += [venv.step(venv.action_space.sample()) for _ in range(250)]
+        grown[t] = [
+            ws[0].shape[0] > size for ws, size in zip(venv.core._workspaces, first, strict=True)
+        ]
+        runs[t] = digest(out)
+        venv.close()
+    assert runs[1] == runs[2]
+    assert grown[2] == [True, True]
