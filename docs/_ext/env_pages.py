@@ -146,7 +146,7 @@ def env_page(env_id: str) -> str:
         f'| vector | `gym.make_vec("{env_id}", num_envs=B, '
         'vectorization_mode="vector_entry_point", num_threads=T)`: the compiled '
         "stages of the B sub-envs in T chunks on T threads (default: the cores the "
-        "process may use, at most B // 64; the same streams for every T; see [the "
+        "process may use, at most B // 64 and at least 1; the same streams for every T; see [the "
         "vector env](../vector.md)) |",
         f"| class | {{class}}`{cls.__module__}.{cls.__name__}` |",
         f"| action space | `{_cell(env.action_space)}` |",

@@ -4,7 +4,9 @@ first concurrently with the caller: how the native vector env uses T threads.
 One core holds every sub-env's rows; a step's Python (the robots' moves, the resets,
 the infos) runs once, in the calling thread, and only its compiled stages are split:
 thread k runs them over chunk k's rows, views of the core's (B, …) arrays, with
-scratch of its own (every kernel is compiled ``nogil``). A row is one sub-env's and
+scratch of its own (every kernel is compiled ``nogil``), and the little Python they
+hand back for those rows (a block of uniforms to refill, a kidnapping, a workspace to
+grow). A row is one sub-env's and
 nothing a kernel computes for it depends on another row, so sub-env b's stream is the
 single env's whatever T is.
 """
@@ -168,18 +170,20 @@ class RowThreads:
             job(0)
             return
         workers = self._workers or self._start_workers()
-        for worker in workers:
-            worker.hand(job)
         failure: BaseException | None = None
+        handed: list[_Worker] = []
         try:
+            for worker in workers:
+                worker.hand(job)
+                handed.append(worker)
             job(0)
-        except BaseException as exc:  # raised once the other chunks are done
+        except BaseException as exc:  # raised once the handed chunks are done
             failure = exc
         try:
-            for worker in workers:  # every chunk done before anything returns or raises
+            for worker in handed:  # every chunk done before anything returns or raises
                 error = worker.wait()
                 failure = failure or error
-        except BaseException:  # interrupted while waiting: the workers finish first
+        except BaseException:  # interrupted while waiting: the threads are stopped
             self.close()
             raise
         if failure is not None:

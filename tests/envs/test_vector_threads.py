@@ -8,6 +8,7 @@ from __future__ import annotations
 import gc
 import pickle
 import threading
+import time
 
 import gymnasium as gym
 import numpy as np
@@ -267,3 +268,18 @@ def test_a_chunk_grows_its_own_workspaces_and_keeps_the_stream() -> None:
         venv.close()
     assert runs[1] == runs[2]
     assert grown[2] == [True, True]
+
+
+def test_a_failure_while_handing_out_the_jobs_waits_for_those_handed() -> None:
+    threads = RowThreads(6, 3)
+    threads.run(lambda k: None)
+    done: list[int] = []
+
+    def refuse(job) -> None:
+        raise RuntimeError("interrupted while handing out")
+
+    threads._workers[1].hand = refuse  # chunk 2's worker
+    with pytest.raises(RuntimeError, match="interrupted while handing out"):
+        threads.run(lambda k: (time.sleep(0.05), done.append(k)))
+    assert done == [1]  # chunk 1 was handed and finished first; chunk 0 never started
+    assert threads.threads == []
