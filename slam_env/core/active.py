@@ -172,7 +172,7 @@ class ActiveCore(BatchCore):
         self.updated = np.zeros(b, dtype=bool)
         self._counted = np.zeros(b, dtype=bool)  # the updates that succeeded
         self._touched = np.zeros(b, dtype=bool)  # the sub-envs a step moves or resets
-        # Each thread's kernel arguments (_chunk) and workspaces, made at the first step.
+        # Each chunk's kernel arguments and workspaces (_make_chunks), made at the first step.
         self._chunks: list[_Chunk] | None = None
         self._workspaces: list[tuple] = []
         self.diagnostics = np.zeros((len(DIAGNOSTICS), b))
